@@ -1,0 +1,26 @@
+"""jaxsubdiv: differentiable, batched subdivision curves in JAX."""
+
+import importlib.metadata
+
+from ._refine import (
+    DEFAULT_MEMORY_BUDGET as DEFAULT_MEMORY_BUDGET,
+    refine as refine,
+    refined_count as refined_count,
+    subdivision_matrix as subdivision_matrix,
+)
+from ._scheme.base import AbstractCurveScheme as AbstractCurveScheme
+from ._scheme.chaikin import Chaikin as Chaikin
+from ._scheme.corner_cutting import CornerCutting as CornerCutting
+from ._scheme.cubic_bspline import CubicBSpline as CubicBSpline
+from ._scheme.daubechies import Daubechies as Daubechies
+from ._scheme.four_point import FourPoint as FourPoint
+from ._scheme.lane_riesenfeld import LaneRiesenfeld as LaneRiesenfeld
+from ._scheme.mask_scheme import MaskScheme as MaskScheme
+from ._scheme.split_tweak import Jarek as Jarek, SplitTweak as SplitTweak
+from . import shapes as shapes
+
+
+try:
+    __version__ = importlib.metadata.version("jaxsubdiv")
+except importlib.metadata.PackageNotFoundError:  # running from a source tree
+    __version__ = "0.0.0"

@@ -1,0 +1,194 @@
+"""The one mask-driven refinement kernel behind every curve scheme.
+
+A level of a binary stationary scheme is $Q_K = \\sum_j a_{K-2j} P_j$. Composing `k`
+levels gives another such map with the composite mask
+$a^{(k)}(z) = \\prod_{l<k} a(z^{2^l})$ and dilation $2^k$:
+
+    Q^{(k)}_{2^k i + r} = sum_m W[r, m] P_{i + jmin + m},   W[r, m] = a^{(k)}_{r - 2^k (jmin + m)}
+
+so `k` levels are one polyphase filter with a small table `W` (2^k rows, a few columns).
+Applying it reads each control point a few times and writes each output once, which is
+as close to a memory copy as a refinement can be. `W` is built with `jax.numpy` from the
+scheme's mask, so it is differentiable in the scheme's parameters.
+
+Closed curves apply the filter periodically. Open curves apply it to the polygon padded
+with zeros and keep the run of outputs whose stencil lay inside the polygon at every
+level (the zero padding meets only zero weights there). Clamped ends and creases are
+not stationary, so they are refined one level at a time with ghost points.
+"""
+
+import math
+from typing import NamedTuple
+
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+
+class Polyphase(NamedTuple):
+    table: Float[Array, "rows width"]  # W[r, m]
+    jmin: int  # control-point offset of column 0
+    rows: int  # 2**levels
+
+
+def composite_mask(mask: Float[Array, " L"], start: int, levels: int):
+    """Coefficients and start index of $a^{(k)}(z) = \\prod_{l<k} a(z^{2^l})$."""
+    length = mask.shape[-1]
+    if levels == 0:
+        return jnp.ones((1,), mask.dtype), 0
+    composite = mask
+    for level in range(1, levels):
+        step = 2**level
+        # a^{(l+1)}(z) = a^{(l)}(z) * a(z^{2^l}): a sum of `length` shifted copies.
+        total = composite.shape[-1] + (length - 1) * step
+        composite = sum(
+            mask[q] * jnp.pad(composite, (q * step, total - composite.shape[-1] - q * step))
+            for q in range(length)
+        )
+    return composite, start * (2**levels - 1)
+
+
+def polyphase(mask: Float[Array, " L"], start: int, levels: int) -> Polyphase:
+    """The polyphase table of `levels` levels of the scheme with this mask."""
+    composite, first = composite_mask(mask, start, levels)
+    rows = 2**levels
+    last = first + composite.shape[-1] - 1
+    qmin, qmax = first // rows, last // rows
+    blocks = qmax - qmin + 1
+    padded = jnp.pad(composite, (first - qmin * rows, blocks * rows - (last - qmin * rows) - 1))
+    # blocks[q - qmin, r] = a^{(k)}_{q * rows + r}, and W[r, m] uses q = -(jmin + m).
+    table = padded.reshape(blocks, rows)[::-1].T
+    return Polyphase(table, -qmax, rows)
+
+
+def _filter(windows: list[Array], table: Array) -> Array:
+    """sum_m table[r, m] * windows[m][..., i, :] -> (..., i, r, :)."""
+    out = None
+    for m, window in enumerate(windows):
+        term = window[..., :, None, :] * table[:, m][:, None]
+        out = term if out is None else out + term
+    return out
+
+
+def apply_periodic(points: Float[Array, "*batch n d"], phase: Polyphase) -> Array:
+    """All $2^k n$ outputs of a closed curve, in order."""
+    n, d = points.shape[-2:]
+    width = phase.table.shape[1]
+    windows = [jnp.roll(points, -(phase.jmin + m), axis=-2) for m in range(width)]
+    out = _filter(windows, phase.table)
+    return out.reshape(*points.shape[:-2], n * phase.rows, d)
+
+
+def apply_window(
+    points: Float[Array, "*batch n d"], phase: Polyphase, first: int, count: int
+) -> Array:
+    """Outputs $K$ = `first`, ..., `first + count - 1` of the infinite (non-periodic)
+    refinement of `points`, with zeros standing for the points beyond the ends."""
+    n, d = points.shape[-2:]
+    rows, width = phase.rows, phase.table.shape[1]
+    i0 = first // rows
+    i1 = (first + count - 1) // rows
+    lo = i0 + phase.jmin  # first control point index any output needs
+    hi = i1 + phase.jmin + width - 1
+    pad_lo, pad_hi = max(0, -lo), max(0, hi - (n - 1))
+    pad = [(0, 0)] * (points.ndim - 2) + [(pad_lo, pad_hi), (0, 0)]
+    padded = jnp.pad(points, pad)
+    blocks = i1 - i0 + 1
+    windows = [
+        padded[..., lo + pad_lo + m : lo + pad_lo + m + blocks, :] for m in range(width)
+    ]
+    out = _filter(windows, phase.table).reshape(*points.shape[:-2], blocks * rows, d)
+    offset = first - i0 * rows
+    return out[..., offset : offset + count, :]
+
+
+# --------------------------------------------------------------------------------------
+# Static bookkeeping: which outputs an open or clamped level keeps.
+
+
+def parity_ranges(start: int, length: int):
+    """(lowest, highest) mask index of each parity."""
+    ranges = []
+    for p in (0, 1):
+        ks = [k for k in range(start, start + length) if k % 2 == p]
+        ranges.append((min(ks), max(ks)) if ks else None)
+    return ranges
+
+
+def open_run(n: int, start: int, length: int) -> tuple[int, int]:
+    """(first, count) of the outputs of one open level on `n` points.
+
+    Output $K$ of parity $p$ has a full stencil inside $P_0..P_{n-1}$ iff
+    $\\max_p \\le K \\le 2(n-1) + \\min_p$ over the mask indices of parity $p$; the open
+    rule keeps the longest run of consecutive outputs that all have one.
+    """
+    ranges = parity_ranges(start, length)
+    if any(r is None for r in ranges):
+        raise ValueError("a mask needs coefficients of both parities")
+    first = max(hi for _, hi in ranges) - 1
+    last = min(2 * (n - 1) + lo for lo, _ in ranges) + 1
+    return first, last - first + 1
+
+
+def open_levels(n: int, start: int, length: int, levels: int) -> tuple[int, int]:
+    """(first, count) of the open run after `levels` levels, in level-`levels` indices."""
+    first = 0
+    for _ in range(levels):
+        level_first, n = open_run(n, start, length)
+        first = 2 * first + level_first
+        if n < 1:
+            return first, n
+    return first, n
+
+
+def clamped_run(n: int, centre: float) -> tuple[int, int]:
+    """(first, count) of the outputs at curve parameters in [0, n - 1] (one level)."""
+    first = math.ceil(centre)
+    last = math.floor(2 * (n - 1) + centre)
+    return first, last - first + 1
+
+
+def clamped_count(n: int, centre: float) -> int:
+    _, count = clamped_run(n, centre)
+    # Primal schemes replace their two end outputs by the end points; dual ones add them.
+    return count if float(centre).is_integer() else count + 2
+
+
+def ghost_reach(n: int, start: int, length: int, centre: float) -> tuple[int, int]:
+    """How many ghost points one clamped level needs before and after the polygon."""
+    first, count = clamped_run(n, centre)
+    last_k = first + count - 1
+    end = start + length - 1
+    j_lo = -((end - first) // 2)  # ceil((first - end) / 2)
+    j_hi = (last_k - start) // 2
+    return max(0, -j_lo), max(0, j_hi - (n - 1))
+
+
+def with_ghosts(points: Array, before: int, after: int, kind: str) -> Array:
+    """Extend a polygon by ghost points: reflected through the end point, or repeated."""
+    n = points.shape[-2]
+    p0, pn = points[..., :1, :], points[..., -1:, :]
+    if kind == "repeat":
+        head = jnp.repeat(p0, before, axis=-2)
+        tail = jnp.repeat(pn, after, axis=-2)
+    else:
+        # P_{-q} = 2 P_0 - P_q (q capped at n - 1), and likewise at the far end.
+        head_idx = [min(q, n - 1) for q in range(before, 0, -1)]
+        tail_idx = [n - 1 - min(q, n - 1) for q in range(1, after + 1)]
+        head = 2 * p0 - points[..., head_idx, :]
+        tail = 2 * pn - points[..., tail_idx, :]
+    return jnp.concatenate([head, points, tail], axis=-2)
+
+
+def clamped_level(points: Array, mask: Array, start: int, centre: float, kind: str) -> Array:
+    """One clamped level: interior outputs from ghost-extended points, ends pinned."""
+    n = points.shape[-2]
+    length = mask.shape[-1]
+    before, after = ghost_reach(n, start, length, centre)
+    extended = with_ghosts(points, before, after, kind)
+    first, count = clamped_run(n, centre)
+    # In the extended polygon index j is shifted by `before`, so output K by 2 * before.
+    inner = apply_window(extended, polyphase(mask, start, 1), first + 2 * before, count)
+    ends = points[..., :1, :], points[..., -1:, :]
+    if float(centre).is_integer():
+        return jnp.concatenate([ends[0], inner[..., 1:-1, :], ends[1]], axis=-2)
+    return jnp.concatenate([ends[0], inner, ends[1]], axis=-2)

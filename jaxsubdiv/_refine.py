@@ -1,0 +1,274 @@
+import math
+from collections.abc import Sequence
+from typing import Literal
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from ._kernel import (
+    apply_periodic,
+    apply_window,
+    clamped_count,
+    clamped_level,
+    open_levels,
+    polyphase,
+)
+from ._misc import as_float_array, is_traced, static_int
+from ._scheme.base import AbstractCurveScheme
+
+
+Boundary = Literal["closed", "open", "clamped"]
+BOUNDARIES = ("closed", "open", "clamped")
+
+#: Default cap on the size of one `refine` output, in bytes (2 GiB).
+DEFAULT_MEMORY_BUDGET = 2 * 1024**3
+
+
+def _check_scheme(scheme) -> AbstractCurveScheme:
+    if not isinstance(scheme, AbstractCurveScheme):
+        raise TypeError(
+            "`scheme` must be a jaxsubdiv curve scheme such as `jaxsubdiv.Chaikin()`, "
+            f"`jaxsubdiv.FourPoint(w)` or `jaxsubdiv.MaskScheme(mask, start)`; got "
+            f"{type(scheme).__name__}."
+        )
+    return scheme
+
+
+def _check_boundary(boundary, scheme: AbstractCurveScheme) -> str:
+    if boundary not in BOUNDARIES:
+        raise ValueError(f"`boundary` must be one of {BOUNDARIES}, got {boundary!r}.")
+    if boundary == "clamped" and scheme.clamp_ghost is None:
+        raise ValueError(
+            f"{type(scheme).__name__} has no clamped end rule; use boundary='closed' or "
+            "boundary='open'."
+        )
+    return boundary
+
+
+def _check_creases(creases, n: int, boundary: str) -> tuple[int, ...]:
+    if creases is None:
+        return ()
+    if is_traced(creases):
+        raise TypeError("`creases` sets array shapes, so it must be a list of Python ints.")
+    values = np.asarray(creases).reshape(-1) if not isinstance(creases, int) else [creases]
+    if len(values) and not np.issubdtype(np.asarray(values).dtype, np.integer):
+        raise TypeError(f"`creases` must be control point indices (ints), got {creases!r}.")
+    values = sorted({int(c) for c in values})
+    if boundary == "open":
+        raise ValueError(
+            "`creases` need boundary='closed' or boundary='clamped' (a crease splits the "
+            "curve into clamped pieces); with boundary='open' use 'clamped' instead."
+        )
+    bad = [c for c in values if not 0 <= c < n]
+    if bad:
+        raise ValueError(f"`creases` must be indices in [0, {n - 1}], got {bad}.")
+    if boundary == "clamped":
+        values = [c for c in values if 0 < c < n - 1]  # the ends are sharp already
+    return tuple(values)
+
+
+def _segments(n: int, boundary: str, creases: tuple[int, ...]) -> list[list[int]]:
+    """Control point indices of the clamped pieces a creased curve is cut into."""
+    if boundary == "clamped":
+        cuts = [0, *creases, n - 1]
+        return [list(range(a, b + 1)) for a, b in zip(cuts[:-1], cuts[1:])]
+    # Closed: pieces run from crease to crease, the last one wrapping around.
+    cuts = [*creases, creases[0] + n]
+    return [[j % n for j in range(a, b + 1)] for a, b in zip(cuts[:-1], cuts[1:])]
+
+
+def _min_points(scheme: AbstractCurveScheme, boundary: str) -> int:
+    if boundary == "closed":
+        return 3
+    if boundary == "clamped":
+        return 2
+    # Open: the smallest n whose open level does not shrink the polygon.
+    start, length = scheme.mask_start, scheme.mask_length
+    n = 2
+    while open_levels(n, start, length, 1)[1] < n:
+        n += 1
+    return n
+
+
+def refined_count(
+    n: int,
+    scheme: AbstractCurveScheme,
+    levels: int,
+    boundary: Boundary = "closed",
+    *,
+    creases: Sequence[int] | None = None,
+) -> int:
+    """Number of points `refine` returns for `n` control points.
+
+    **Arguments:** as for [`jaxsubdiv.refine`][], with the number of control points `n`
+    in place of the points.
+
+    **Returns:** a Python int. Closed curves give $2^k n$; open, clamped and creased
+    curves follow the rules documented on each scheme.
+    """
+    scheme = _check_scheme(scheme)
+    levels = static_int(levels, "levels", minimum=0)
+    n = static_int(n, "n", minimum=1)
+    boundary = _check_boundary(boundary, scheme)
+    creases = _check_creases(creases, n, boundary)
+    return _count(n, scheme, levels, boundary, creases)
+
+
+def _count(n, scheme, levels, boundary, creases) -> int:
+    if creases:
+        pieces = _segments(n, boundary, creases)
+        total = sum(_count(len(p), scheme, levels, "clamped", ()) for p in pieces)
+        # Neighbouring pieces share their crease point; a closed curve shares one more.
+        return total - (len(pieces) - 1) - (boundary == "closed")
+    if boundary == "closed":
+        return n * 2**levels
+    if boundary == "open":
+        return open_levels(n, scheme.mask_start, scheme.mask_length, levels)[1]
+    for _ in range(levels):
+        n = clamped_count(n, scheme.centre)
+    return n
+
+
+def _refine_static(points, scheme, levels, boundary, creases):
+    """The jitted body; `levels`, `boundary` and `creases` are static."""
+    mask = scheme.mask().astype(points.dtype)
+    start = scheme.mask_start
+    n = points.shape[-2]
+    if levels == 0:
+        return points
+    if creases:
+        pieces = [
+            _refine_static(points[..., idx, :], scheme, levels, "clamped", ())
+            for idx in _segments(n, boundary, creases)
+        ]
+        joined = [pieces[0]] + [p[..., 1:, :] for p in pieces[1:]]
+        out = jnp.concatenate(joined, axis=-2)
+        return out[..., :-1, :] if boundary == "closed" else out
+    if boundary == "closed":
+        return apply_periodic(points, polyphase(mask, start, levels))
+    if boundary == "open":
+        first, count = open_levels(n, start, mask.shape[-1], levels)
+        return apply_window(points, polyphase(mask, start, levels), first, count)
+    for _ in range(levels):
+        points = clamped_level(points, mask, start, scheme.centre, scheme.clamp_ghost)
+    return points
+
+
+_refine_jit = eqx.filter_jit(_refine_static)
+
+
+def refine(
+    points: Float[ArrayLike, "*batch n d"],
+    scheme: AbstractCurveScheme,
+    levels: int,
+    *,
+    boundary: Boundary = "closed",
+    creases: Sequence[int] | None = None,
+    memory_budget: int = DEFAULT_MEMORY_BUDGET,
+) -> Float[Array, "*batch N d"]:
+    """Refine a control polygon `levels` times with a subdivision scheme.
+
+    All `levels` levels are applied as one polyphase filter built from the scheme's
+    composite mask (closed and open curves), or level by level with ghost points
+    (clamped ends and creases). The result is differentiable in `points` and in the
+    scheme's parameters, and `refine` works under `jax.jit`, `jax.vmap` and `jax.grad`.
+    It is compiled once per (scheme type, shape, dtype, `levels`, `boundary`,
+    `creases`); new point or parameter values do not recompile.
+
+    **Arguments:**
+
+    - `points`: control points, shape `(..., n, d)` for any `d >= 1` (2-D outlines,
+      3-D space curves, extra channels such as colour or width); leading axes are
+      batch axes. Integer input is promoted to floating point. The output has the
+      dtype of `points` (float32 and float64 both work).
+    - `scheme`: a curve scheme, e.g. `Chaikin()`, `CornerCutting(r, s)`,
+      `FourPoint(w)`, `CubicBSpline()`, `LaneRiesenfeld(degree)`, `SplitTweak(t)`,
+      `Jarek()`, `Daubechies()`, `MaskScheme(mask, start)`.
+    - `levels`: number of refinement levels, a Python int >= 0 (static).
+    - `boundary`: `"closed"` (periodic: $n \\to 2n$ per level); `"open"` (keep only the
+      outputs whose whole stencil lies inside the polygon, e.g. Chaikin
+      $n \\to 2(n-1)$, cubic B-spline $n \\to 2n - 3$); `"clamped"` (end points kept,
+      so the curve interpolates them; see each scheme for its end rule). Static.
+    - `creases`: indices of control points that stay sharp (static). The curve is cut
+      at them into clamped pieces, so it passes through each crease with a corner.
+      Allowed with `"closed"` (the output then starts at the first crease) and
+      `"clamped"`.
+    - `memory_budget`: the largest output, in bytes, `refine` will build (default
+      2 GiB); a larger request is an error that states the size.
+
+    **Returns:** the refined points, shape `(..., N, d)` with
+    `N = refined_count(n, scheme, levels, boundary, creases=creases)`.
+
+    Index convention (closed curves, one level): for dual (corner-cutting) schemes
+    `Q[2i]` and `Q[2i+1]` are the two new points on edge `(i, i+1)`; for primal schemes
+    `Q[2i]` is the vertex point of `P[i]` and `Q[2i+1]` the edge point of `(i, i+1)`;
+    for `LaneRiesenfeld`, `Q[2i]` and `Q[2i+1]` are the points that sat at those
+    indices after the split, before the averaging passes. In general
+    `Q[K] = sum_j a[K - 2j] P[j]` with `a` the scheme's mask.
+
+    Non-finite values in `points` propagate to the outputs they touch (refinement is
+    linear); scheme parameters are range-checked when the scheme is built.
+    """
+    points = as_float_array(points, "points")
+    scheme = _check_scheme(scheme)
+    levels = static_int(levels, "levels", minimum=0)
+    if points.ndim < 2:
+        raise ValueError(
+            f"`points` must have shape (..., n, d), got shape {points.shape}. For a "
+            "sequence of scalars use `points[:, None]`."
+        )
+    n, d = points.shape[-2:]
+    if d < 1:
+        raise ValueError("`points` must have at least one coordinate (d >= 1).")
+    if scheme.mask().ndim != 1:
+        raise ValueError(
+            f"{type(scheme).__name__} holds a batch of parameter values (mask shape "
+            f"{scheme.mask().shape}); refine takes one scheme. To refine with many "
+            "parameter values, `jax.vmap` over the scheme."
+        )
+    boundary = _check_boundary(boundary, scheme)
+    creases = _check_creases(creases, n, boundary)
+    needed = _min_points(scheme, boundary)
+    if n < needed:
+        raise ValueError(
+            f"{type(scheme).__name__} with boundary={boundary!r} needs at least {needed} "
+            f"control points, got n={n}."
+        )
+    count = _count(n, scheme, levels, boundary, creases)
+    batch = math.prod(points.shape[:-2])
+    size = count * d * batch * points.dtype.itemsize
+    if size > memory_budget:
+        raise ValueError(
+            f"refine would build {count:,} points x {d} coordinates"
+            + (f" x {batch:,} curves" if batch > 1 else "")
+            + f" = {size / 1024**3:.3g} GiB, above memory_budget={memory_budget:,} bytes. "
+            "Use fewer levels, refine in chunks, evaluate the limit curve at the "
+            "resolution you need, or raise `memory_budget`."
+        )
+    return _refine_jit(points, scheme, levels, boundary, creases)
+
+
+def subdivision_matrix(
+    n: int,
+    scheme: AbstractCurveScheme,
+    levels: int,
+    boundary: Boundary = "closed",
+    *,
+    creases: Sequence[int] | None = None,
+) -> Float[Array, "N n"]:
+    """The linear map $S$ with `refine(P, ...) == S @ P` for `n` control points.
+
+    Built by refining the identity, so it is exact, differentiable in the scheme's
+    parameters, and in the dtype of the scheme's mask. It is dense (`N x n`): use it for
+    analysis and small fits, and `refine` for large curves.
+
+    **Arguments:** as for [`jaxsubdiv.refined_count`][].
+
+    **Returns:** an array of shape `(N, n)`.
+    """
+    scheme = _check_scheme(scheme)
+    n = static_int(n, "n", minimum=1)
+    eye = jnp.eye(n, dtype=scheme.mask().dtype)
+    return refine(eye, scheme, levels, boundary=boundary, creases=creases)

@@ -1,0 +1,52 @@
+from typing import ClassVar
+
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
+
+from .._misc import checked_parameter
+from .base import AbstractCurveScheme
+
+
+class FourPoint(AbstractCurveScheme):
+    r"""The Dyn-Levin-Gregory four-point interpolating scheme with tension `w`.
+
+    Old points are kept and one point is inserted on every edge:
+
+    $$Q_{2i} = P_i, \qquad
+      Q_{2i+1} = (\tfrac12 + w)(P_i + P_{i+1}) - w(P_{i-1} + P_{i+2}).$$
+
+    Mask $(-w, 0, \tfrac12 + w, 1, \tfrac12 + w, 0, -w)$ on $k = -3, \dots, 3$.
+    At $w = 1/16$ the scheme reproduces cubic polynomials; $w = 0$ is piecewise-linear
+    interpolation.
+
+    **Arguments:**
+
+    - `w`: the tension, $-1/4 < w < 1/4$ (default $1/16$). On that interval the
+      difference scheme is contractive in the max norm ($\tfrac12 + 2|w| < 1$), so the
+      scheme converges (Dyn, Levin and Gregory 1987); smoothness ($C^1$ or not) depends
+      on `w`: see `jaxsubdiv.smoothness`.
+
+    Boundaries: `"closed"`, `"open"` ($n \to 2n - 5$), `"clamped"` (the classic rule:
+    the end points are repeated as ghost points at every level; $n \to 2n - 1$), and
+    creases.
+
+    Reference: N. Dyn, D. Levin, J. A. Gregory, "A 4-point interpolatory subdivision
+    scheme for curve design", Computer Aided Geometric Design 4 (1987) 257-268.
+    """
+
+    w: Float[Array, ""]
+    clamp_ghost: ClassVar[str] = "repeat"
+
+    def __init__(self, w: ArrayLike = 1 / 16):
+        self.w = checked_parameter(
+            w, lambda w_: (-0.25 < w_) & (w_ < 0.25), "`FourPoint(w)` needs -1/4 < w < 1/4."
+        )
+
+    def mask(self) -> Float[Array, " 7"]:
+        w = self.w
+        zero, one = jnp.zeros_like(w), jnp.ones_like(w)
+        return jnp.stack([-w, zero, 0.5 + w, one, 0.5 + w, zero, -w])
+
+    @property
+    def mask_start(self) -> int:
+        return -3

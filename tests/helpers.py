@@ -1,0 +1,106 @@
+"""Scheme lists the tests parametrise over, and independent references."""
+
+import numpy as np
+
+import jaxsubdiv as js
+
+
+def all_schemes():
+    """One instance of every built-in scheme, with ids."""
+    return [
+        ("chaikin", js.Chaikin()),
+        ("corner_cutting", js.CornerCutting(0.2, 0.65)),
+        ("four_point", js.FourPoint(0.05)),
+        ("cubic_bspline", js.CubicBSpline()),
+        ("lane_riesenfeld_1", js.LaneRiesenfeld(1)),
+        ("lane_riesenfeld_4", js.LaneRiesenfeld(4)),
+        ("lane_riesenfeld_5", js.LaneRiesenfeld(5)),
+        ("split_tweak", js.SplitTweak(0.3)),
+        ("jarek", js.Jarek()),
+        ("daubechies", js.Daubechies()),
+        ("mask", js.MaskScheme([-1 / 16, 0, 9 / 16, 1, 9 / 16, 0, -1 / 16], -3)),
+    ]
+
+
+def schemes_with(boundary):
+    return [(name, s) for name, s in all_schemes() if boundary != "clamped" or s.clamp_ghost]
+
+
+# Schemes whose limit is a uniform B-spline, with its degree.
+bspline_schemes = [
+    ("chaikin", js.Chaikin(), 2),
+    ("cubic_bspline", js.CubicBSpline(), 3),
+    *[(f"lane_riesenfeld_{d}", js.LaneRiesenfeld(d), d) for d in range(2, 7)],
+]
+
+# Schemes with a parameter, how to build them, and a valid value to differentiate at.
+parametrised_schemes = [
+    ("corner_cutting_r", lambda x: js.CornerCutting(x, 0.7), 0.3),
+    ("corner_cutting_s", lambda x: js.CornerCutting(0.2, x), 0.6),
+    ("four_point", js.FourPoint, 0.07),
+    ("split_tweak", js.SplitTweak, 0.4),
+    ("mask", lambda x: js.MaskScheme([x, 1 - x, 1 - x, x], -2), 0.2),
+]
+
+
+def chaikin_python(points, levels, closed):
+    """Quarter-point corner cutting as a deliberately plain Python loop.
+
+    For each edge, the points 1/4 and 3/4 of the way along it; an open curve skips the
+    closing edge. This is the regression reference for `Chaikin` and the benchmarks'
+    pure-Python baseline; it shares no code with jaxsubdiv.
+    """
+    current = [tuple(float(x) for x in p) for p in points]
+    for _ in range(levels):
+        refined = []
+        count = len(current)
+        for i in range(count):
+            j = i + 1
+            if j == count:
+                if not closed:
+                    continue
+                j = 0
+            a, b = current[i], current[j]
+            refined.append(tuple(0.75 * x + 0.25 * y for x, y in zip(a, b)))
+            refined.append(tuple(0.25 * x + 0.75 * y for x, y in zip(a, b)))
+        current = refined
+    return np.array(current)
+
+
+def refine_by_definition(points, mask, start, levels, boundary):
+    """Level-by-level refinement straight from the definition Q_K = sum_j a_{K-2j} P_j,
+    in numpy with explicit loops over outputs. Independent of jaxsubdiv's kernel.
+
+    Open curves keep the longest run of outputs whose stencil (all mask positions)
+    lies inside the polygon.
+    """
+    mask = np.asarray(mask, dtype=float)
+    P = np.asarray(points, dtype=float)
+    end = start + len(mask) - 1
+    for _ in range(levels):
+        n = len(P)
+        if boundary == "closed":
+            Q = np.zeros((2 * n,) + P.shape[1:])
+            for K in range(2 * n):
+                for k in range(start, end + 1):
+                    if (K - k) % 2 == 0:
+                        Q[K] += mask[k - start] * P[((K - k) // 2) % n]
+            P = Q
+            continue
+        valid = {}
+        for K in range(2 * start - 4, 2 * n + 2 * abs(end) + 4):
+            js_ = [(K - k) // 2 for k in range(start, end + 1) if (K - k) % 2 == 0]
+            if all(0 <= j < n for j in js_):
+                valid[K] = sum(
+                    mask[k - start] * P[(K - k) // 2]
+                    for k in range(start, end + 1)
+                    if (K - k) % 2 == 0
+                )
+        # longest run of consecutive valid outputs
+        best, run = [], []
+        for K in sorted(valid):
+            run = run + [K] if run and K == run[-1] + 1 else [K]
+            if len(run) > len(best):
+                best = run
+        P = np.array([valid[K] for K in best])
+    return P
