@@ -18,6 +18,23 @@ from ._scheme.lane_riesenfeld import LaneRiesenfeld as LaneRiesenfeld
 from ._scheme.mask_scheme import MaskScheme as MaskScheme
 from ._scheme.split_tweak import Jarek as Jarek, SplitTweak as SplitTweak
 from . import shapes as shapes
+from ._analysis.analyze import Analysis as Analysis, analyze as analyze
+from ._analysis.limit import (
+    limit_curvature as limit_curvature,
+    limit_points as limit_points,
+    limit_second_derivatives as limit_second_derivatives,
+    limit_tangents as limit_tangents,
+)
+from ._analysis.local import (
+    Eigen as Eigen,
+    curvature_stencil as curvature_stencil,
+    eigen as eigen,
+    limit_stencil as limit_stencil,
+    local_matrix as local_matrix,
+    neighbourhood as neighbourhood,
+    tangent_stencil as tangent_stencil,
+)
+from ._analysis.smoothness import Smoothness as Smoothness, smoothness as smoothness
 
 
 try:

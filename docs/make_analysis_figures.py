@@ -1,0 +1,90 @@
+"""Regenerate the figures and the table of docs/analysis.md.
+
+    python docs/make_analysis_figures.py          # writes docs/images/*.png, prints tables
+
+Uses matplotlib with the Agg backend; each PNG stays well under 200 KB.
+"""
+
+import math
+import pathlib
+
+import jax
+import matplotlib
+
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+import jaxsubdiv as js  # noqa: E402
+
+
+jax.config.update("jax_enable_x64", True)
+IMAGES = pathlib.Path(__file__).parent / "images"
+
+
+def four_point_figure():
+    ws = np.linspace(-0.245, 0.245, 197)
+    ws = np.sort(np.concatenate([ws, [1 / 16, 0.0, (math.sqrt(5) - 1) / 8]]))
+    results = [js.smoothness(js.FourPoint(w)) for w in ws]
+    lo = np.array([r.holder_lower for r in results])
+    hi = np.array([r.holder_upper for r in results])
+    fig, ax = plt.subplots(figsize=(7, 4), dpi=100)
+    ax.fill_between(ws, lo, hi, color="tab:blue", alpha=0.3, label="rigorous bounds")
+    ax.plot(ws, lo, color="tab:blue", lw=1, label="Hölder exponent (lower bound)")
+    ax.axhline(1, color="k", lw=0.6)
+    ax.axvline((math.sqrt(5) - 1) / 8, color="tab:orange", ls="--", lw=1,
+               label="DLG 1987 sufficient C1 bound (√5-1)/8")
+    ax.axvline(0.19273, color="tab:red", ls=":", lw=1, label="C1 limit ≈ 0.19273 (HMR 2009)")
+    ax.plot([1 / 16], [2], "ko", ms=4, label="w = 1/16: exponent 2")
+    ax.set_xlabel("tension w")
+    ax.set_ylabel("Hölder exponent of the basis function")
+    ax.set_title("Four-point scheme: smoothness against w")
+    ax.legend(fontsize=7, loc="lower center")
+    fig.tight_layout()
+    fig.savefig(IMAGES / "analysis_four_point_holder.png")
+    plt.close(fig)
+
+
+def corner_cutting_figure():
+    grid = np.linspace(0.0, 1.0, 61)[1:-1]
+    values = np.full((len(grid), len(grid)), np.nan)
+    for i, s in enumerate(grid):
+        for j, r in enumerate(grid):
+            if r < s:
+                values[i, j] = js.smoothness(js.CornerCutting(r, s)).holder_lower
+    fig, ax = plt.subplots(figsize=(5.5, 4.5), dpi=100)
+    mesh = ax.pcolormesh(grid, grid, values, shading="nearest", cmap="viridis")
+    fig.colorbar(mesh, ax=ax, label="Hölder exponent (lower bound)")
+    line = np.linspace(0, 0.5, 2)
+    ax.plot(line, line + 0.5, "w--", lw=1.2, label="s - r = 1/2: the only C1 pairs")
+    ax.plot([0.25], [0.75], "r*", ms=9, label="Chaikin (1/4, 3/4)")
+    ax.plot([1 / 3], [2 / 3], "wx", ms=7, label="de Rham trisection (1/3, 2/3)")
+    ax.set_xlabel("r")
+    ax.set_ylabel("s")
+    ax.set_title("Corner cutting: Hölder exponent over 0 < r < s < 1")
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(IMAGES / "analysis_corner_cutting_holder.png")
+    plt.close(fig)
+
+
+def table():
+    schemes = [
+        js.Chaikin(), js.CornerCutting(0.2, 0.65), js.CornerCutting(0.1, 0.6),
+        js.CornerCutting(1 / 3, 2 / 3), js.FourPoint(1 / 16), js.FourPoint(0.1),
+        js.CubicBSpline(), *[js.LaneRiesenfeld(d) for d in range(1, 7)], js.SplitTweak(0.3),
+        js.Jarek(), js.Daubechies(),
+    ]
+    for s in schemes:
+        print(js.analyze(s))
+        if not s.is_primal and js.smoothness(s).converges:
+            print("  vertex limit stencil", np.round(np.asarray(js.limit_stencil(s, at="vertex")), 6))
+        print()
+
+
+if __name__ == "__main__":
+    IMAGES.mkdir(exist_ok=True)
+    four_point_figure()
+    corner_cutting_figure()
+    table()

@@ -1,0 +1,358 @@
+"""Scheme analysis: local matrices, stencils, exact limit evaluation, smoothness.
+
+References used: closed forms of the uniform B-splines, `scipy.interpolate.BSpline`,
+finite differences, published eigenvalues (Dyn-Levin-Gregory 1987 four-point scheme) and
+Hölder exponents (Daubechies and Lagarias 1992 for D4; B-splines: degree).
+"""
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy.interpolate import BSpline
+
+import jaxsubdiv as js
+from helpers import all_schemes, bspline_schemes
+
+
+def _polygon(n=9, seed=0):
+    return np.random.default_rng(seed).normal(size=(n, 2))
+
+
+def _four_point_mask(w):
+    return js.MaskScheme([-w, 0, 0.5 + w, 1, 0.5 + w, 0, -w], -3)
+
+
+class _NotAffine(js.AbstractCurveScheme):
+    """A mask whose sub-masks do not sum to one (MaskScheme refuses to build it)."""
+
+    def mask(self):
+        return jnp.array([0.5, 1.0, 0.5, 0.5])
+
+    @property
+    def mask_start(self):
+        return -2
+
+
+# --- The issue's closed forms and published values -------------------------------------
+
+
+def test_cubic_bspline_stencils_and_eigenvalues():
+    s = js.CubicBSpline()
+    np.testing.assert_allclose(js.limit_stencil(s), np.array([1, 4, 1]) / 6, atol=1e-14)
+    np.testing.assert_allclose(js.tangent_stencil(s), np.array([-1, 0, 1]) / 2, atol=1e-14)
+    # B''(0) = -2 and B''(+-1) = 1 for the centred cubic B-spline.
+    np.testing.assert_allclose(js.curvature_stencil(s), [1, -2, 1], atol=1e-13)
+    np.testing.assert_allclose(js.eigen(s).values, [1, 0.5, 0.25], atol=1e-14)
+    assert js.neighbourhood(s) == (-1, 0, 1)
+
+
+def test_four_point_eigenvalues_on_five_point_neighbourhood():
+    s = js.FourPoint(1 / 16)
+    assert js.neighbourhood(s) == (-2, -1, 0, 1, 2)
+    assert js.local_matrix(s).shape == (5, 5)
+    np.testing.assert_allclose(js.eigen(s).values, [1, 1 / 2, 1 / 4, 1 / 4, 1 / 8], atol=1e-7)
+    # Classic tangent rule of the four-point scheme: (1, -8, 0, 8, -1)/12.
+    np.testing.assert_allclose(
+        js.tangent_stencil(s), np.array([1, -8, 0, 8, -1]) / 12, atol=1e-12
+    )
+
+
+@pytest.mark.parametrize("degree", range(1, 7))
+def test_lane_riesenfeld_holder_exponent_is_degree(degree):
+    r = js.smoothness(js.LaneRiesenfeld(degree))
+    assert r.converges and r.decided
+    assert r.holder_lower == pytest.approx(degree, abs=1e-9)
+    assert r.holder_upper == pytest.approx(degree, abs=1e-9)
+    assert r.continuity == degree - 1
+
+
+def test_chaikin_is_c1_not_c2():
+    r = js.smoothness(js.Chaikin())
+    assert (r.continuity, r.decided) == (1, True)
+    with pytest.raises(ValueError, match="C2"):
+        js.curvature_stencil(js.Chaikin())
+
+
+def test_daubechies_holder_exponent():
+    r = js.smoothness(js.Daubechies())
+    # Daubechies and Lagarias (1992): 0.5500; closed form 1 - log2((1 + sqrt 3)/2).
+    assert r.holder_lower == pytest.approx(0.5500, abs=5e-4)
+    assert r.holder_upper == pytest.approx(0.5500, abs=5e-4)
+    exact = 1 - math.log2((1 + math.sqrt(3)) / 2)
+    assert r.holder_lower <= exact + 1e-9 and exact <= r.holder_upper + 1e-9
+    assert (r.converges, r.continuity, r.decided) == (True, 0, True)
+
+
+def _scipy_limit(P, scheme, degree, t):
+    """C(t) = sum_j P_j phi(t + c - j) with phi(x) = B(x - start), closed polygon."""
+    n = len(P)
+    pad = degree + 3
+    ext = np.array([P[(i - pad) % n] for i in range(n + 2 * pad)])
+    spline = BSpline(np.arange(len(ext) + degree + 1, dtype=float), ext, degree)
+    return spline(t + scheme.centre - scheme.mask_start + pad)
+
+
+@pytest.mark.parametrize("name, scheme, degree", bspline_schemes)
+@pytest.mark.parametrize("levels", [0, 1, 3])
+def test_limit_points_match_scipy_bspline(name, scheme, degree, levels):
+    P = _polygon()
+    Q = js.refine(P, scheme, levels)
+    c = scheme.centre
+    t = np.arange(len(Q)) / 2**levels - c * (1 - 2.0**-levels)  # parameters of Q
+    np.testing.assert_allclose(
+        js.limit_points(Q, scheme), _scipy_limit(P, scheme, degree, t), atol=1e-12
+    )
+
+
+@pytest.mark.parametrize("name, scheme, degree", bspline_schemes)
+def test_open_limit_points_match_scipy_bspline(name, scheme, degree):
+    P = _polygon(12)
+    a = len(js.neighbourhood(scheme, "vertex")) // 2
+    t = np.arange(a, len(P) - a)
+    np.testing.assert_allclose(
+        js.limit_points(P, scheme, boundary="open"),
+        _scipy_limit(P, scheme, degree, t),
+        atol=1e-12,
+    )
+
+
+@pytest.mark.parametrize(
+    "scheme, rtol",
+    [
+        (js.CubicBSpline(), 1e-4),
+        (js.Chaikin(), 1e-4),
+        (js.LaneRiesenfeld(4), 1e-4),
+        (js.FourPoint(1 / 16), 1e-3),
+        (js.Jarek(), 1e-4),
+        (js.FourPoint(0.1), 5e-2),  # Hölder 1.57: the derivative converges slowly
+    ],
+)
+def test_limit_tangents_match_finite_differences(scheme, rtol):
+    P = _polygon(8)
+    k, m = 12, 2**5  # refine 12 levels; difference over +-m fine steps
+    R = np.asarray(js.refine(P, scheme, k))
+    c = scheme.centre
+    tangents = np.asarray(js.limit_tangents(P, scheme))
+    for j in range(len(P)):
+        # Fine index K sits at t = (K + c)/2^k - c; find the points symmetric about t = j.
+        centre = 2**k * (j + c) - c
+        lo = math.floor(centre - m) if not float(centre).is_integer() else int(centre) - m
+        hi = 2 * centre - lo
+        delta = (hi - lo) / 2**k
+        fd = (R[int(hi) % len(R)] - R[lo % len(R)]) / delta
+        np.testing.assert_allclose(tangents[j], fd, rtol=rtol, atol=rtol * np.abs(fd).max())
+
+
+@pytest.mark.parametrize("w", [-0.1, 0.0, 1 / 16, 0.2])
+@pytest.mark.parametrize("boundary", ["closed", "open"])
+def test_interpolating_limit_points_are_the_points(w, boundary):
+    for scheme in (js.FourPoint(w), _four_point_mask(w)):
+        Q = js.refine(_polygon(), scheme, 2)
+        out = js.limit_points(Q, scheme, boundary=boundary)
+        expected = Q if boundary == "closed" else Q[2:-2]
+        np.testing.assert_allclose(out, expected, atol=1e-12)
+
+
+# --- Further checks ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name, scheme", all_schemes())
+def test_stencils_are_left_eigenvectors(name, scheme):
+    """The linear-solve stencils equal numpy's left eigenvectors of the local matrix."""
+    M = np.asarray(js.local_matrix(scheme))
+    values, vectors = np.linalg.eig(M.T)
+    r = js.smoothness(scheme)
+    for order, stencil_fn in enumerate((js.limit_stencil, js.tangent_stencil)):
+        if r.continuity < order:
+            continue
+        i = int(np.argmin(np.abs(values - 2.0**-order)))
+        v = np.real(vectors[:, i])
+        stencil = np.asarray(stencil_fn(scheme))
+        np.testing.assert_allclose(stencil @ M, 2.0**-order * stencil, atol=1e-12)
+        scale = (stencil @ v) / (v @ v)
+        np.testing.assert_allclose(stencil, scale * v, atol=1e-10)
+
+
+def test_chaikin_edge_and_vertex_stencils():
+    # Edge limit (1/2, 1/2) as the seed paper states; vertex (1, 6, 1)/8 (quadratic B-spline).
+    np.testing.assert_allclose(js.limit_stencil(js.Chaikin()), [0.5, 0.5], atol=1e-14)
+    np.testing.assert_allclose(js.eigen(js.Chaikin()).values, [1, 0.5], atol=1e-14)
+    np.testing.assert_allclose(
+        js.limit_stencil(js.Chaikin(), at="vertex"), np.array([1, 6, 1]) / 8, atol=1e-14
+    )
+    np.testing.assert_allclose(js.tangent_stencil(js.Chaikin()), [-1, 1], atol=1e-13)
+
+
+def test_corner_cutting_edge_limit_stencil_closed_form():
+    # Left eigenvector of [[1-r, r], [1-s, s]] for eigenvalue 1: (1-s, r)/(1-s+r).
+    r, s = 0.2, 0.65
+    np.testing.assert_allclose(
+        js.limit_stencil(js.CornerCutting(r, s)), np.array([1 - s, r]) / (1 - s + r), atol=1e-13
+    )
+
+
+@pytest.mark.parametrize(
+    "scheme", [js.CubicBSpline(), js.Chaikin(), js.FourPoint(), js.LaneRiesenfeld(5)]
+)
+def test_clamped_limit_points_match_deep_refinement(scheme):
+    P = _polygon(7)
+    k = 9
+    R = np.asarray(js.refine(P, scheme, k, boundary="clamped"))
+    if scheme.is_primal:
+        ref = R[:: 2**k]  # clamped level-k point i sits at t = i / 2^k
+    else:  # dual: t = j lies midway between two fine points
+        idx = 2**k * np.arange(1, len(P) - 1) + 2 ** (k - 1) - 1
+        ref = np.concatenate([P[:1], (R[idx] + R[idx + 1]) / 2, P[-1:]])
+    # The deeply refined points are within O(4^-k) of the curve.
+    np.testing.assert_allclose(js.limit_points(P, scheme, boundary="clamped"), ref, atol=1e-5)
+
+
+def test_limit_points_gradient_matches_finite_differences():
+    P = _polygon()
+
+    def f(w):
+        limit = js.limit_points(js.refine(P, js.FourPoint(w), 1), js.FourPoint(w))
+        return (limit**2).sum()
+
+    def g(t):
+        return (js.limit_points(P, js.SplitTweak(t), boundary="open") ** 2).sum()
+
+    for fn, x in ((jax.jit(f), 0.07), (jax.jit(g), 0.4)):
+        h = 1e-6
+        fd = float(fn(x + h) - fn(x - h)) / (2 * h)
+        assert abs(fd) > 1e-3  # a real dependence on the parameter
+        assert float(jax.jit(jax.grad(fn))(x)) == pytest.approx(fd, rel=1e-6)
+    # Tangent stencil derivative in w, against central differences of the stencil.
+    ds = jax.jacfwd(lambda w: js.tangent_stencil(js.FourPoint(w)))(0.07)
+    fd = (js.tangent_stencil(js.FourPoint(0.07 + 1e-6)) - js.tangent_stencil(js.FourPoint(0.07 - 1e-6))) / 2e-6
+    np.testing.assert_allclose(ds, fd, atol=1e-6)
+
+
+def test_vmap_jit_batch_and_float32():
+    P = _polygon()
+    ws = jnp.linspace(0.02, 0.1, 4)
+    batched = jax.vmap(lambda w: js.limit_tangents(P, js.FourPoint(w)))(ws)
+    for i, w in enumerate(ws):
+        np.testing.assert_allclose(batched[i], js.limit_tangents(P, js.FourPoint(float(w))), atol=1e-12)
+    jitted = eqx.filter_jit(js.limit_points)(np.stack([P, 2 * P]), js.CubicBSpline())
+    np.testing.assert_allclose(jitted[1], 2 * js.limit_points(P, js.CubicBSpline()), atol=1e-12)
+    out32 = js.limit_points(P.astype(np.float32), js.CubicBSpline())
+    assert out32.dtype == jnp.float32
+    np.testing.assert_allclose(out32, js.limit_points(P, js.CubicBSpline()), atol=1e-5)
+
+
+def test_limit_curvature_of_cubic_bspline_circle_approximation():
+    # Second derivative and curvature against the closed-form B-spline derivatives.
+    P = _polygon()
+    d1 = np.asarray(js.limit_tangents(P, js.CubicBSpline()))
+    d2 = np.asarray(js.limit_second_derivatives(P, js.CubicBSpline()))
+    np.testing.assert_allclose(d1, (np.roll(P, -1, 0) - np.roll(P, 1, 0)) / 2, atol=1e-13)
+    np.testing.assert_allclose(d2, np.roll(P, -1, 0) - 2 * P + np.roll(P, 1, 0), atol=1e-12)
+    kappa = js.limit_curvature(P, js.CubicBSpline())
+    expected = (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]) / np.linalg.norm(d1, axis=1) ** 3
+    np.testing.assert_allclose(kappa, expected, rtol=1e-12)
+
+
+def test_four_point_c1_range():
+    # C1 on 0 < w < w* ~ 0.19273 (Hechler, Mößner, Reif 2009); the DLG sufficient bound
+    # (sqrt 5 - 1)/8 ~ 0.1545 is not the end of it.
+    for w in (0.01, 1 / 16, 0.1, (math.sqrt(5) - 1) / 8 + 0.01, 0.19):
+        assert js.smoothness(js.FourPoint(w)).continuity == 1, w
+    for w in (-0.05, 0.0, 0.194, 0.24):
+        r = js.smoothness(js.FourPoint(w))
+        assert r.continuity == 0 and r.decided, w
+
+
+def test_corner_cutting_c1_only_on_the_line():
+    # C1 iff s - r = 1/2 (a(z) needs a second factor (1+z)); there the Hölder exponent is
+    # 1 - log2 max(2r, 1-2r). So the claim "C1 for all 0 < R < S < 1" fails.
+    for r in (0.05, 0.25, 0.4):
+        res = js.smoothness(js.CornerCutting(r, r + 0.5))
+        exact = 1 - math.log2(max(2 * r, 1 - 2 * r))
+        assert res.continuity == 1
+        assert res.holder_lower - 1e-9 <= exact <= res.holder_upper + 1e-9
+    for r, s in ((1 / 3, 2 / 3), (0.2, 0.65), (0.1, 0.3)):
+        res = js.smoothness(js.CornerCutting(r, s))
+        assert (res.continuity, res.decided, res.factors) == (0, True, 1)
+
+
+def test_jsr_upper_bound_is_rigorous():
+    """No long product has a spectral radius above the certified upper bound."""
+    from jaxsubdiv._analysis.smoothness import factor_symbol, transition_matrices
+
+    rng = np.random.default_rng(1)
+    for scheme in (js.FourPoint(0.1), js.CornerCutting(0.2, 0.65), js.Jarek()):
+        r = js.smoothness(scheme)
+        _, q = factor_symbol(np.asarray(scheme.mask()))
+        T = transition_matrices(q)
+        for _ in range(200):
+            length = int(rng.integers(1, 30))
+            prod = np.eye(T.shape[-1])
+            for e in rng.integers(0, 2, size=length):
+                prod = prod @ T[e]
+            radius = np.abs(np.linalg.eigvals(prod)).max() ** (1 / length)
+            assert radius <= r.jsr_upper * (1 + 1e-9)
+
+
+def test_sub_mask_condition_and_divergence_are_reported():
+    r = js.smoothness(_NotAffine())
+    assert (r.converges, r.continuity) == (False, -1)
+    assert "affine" in r.reason and r.holder_upper == -math.inf
+    r = js.smoothness(_four_point_mask(0.6))
+    assert (r.converges, r.continuity, r.decided) == (False, -1, True)
+    assert r.holder_upper <= 0 and not math.isnan(r.holder_lower)
+    with pytest.raises(ValueError, match="does not converge"):
+        js.limit_stencil(_four_point_mask(0.6))
+    with pytest.raises(ValueError, match="does not converge"):
+        js.limit_points(_polygon(), _four_point_mask(0.6))
+
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="C1"):
+        js.tangent_stencil(js.Daubechies())
+    with pytest.raises(ValueError, match="C1"):
+        js.limit_tangents(_polygon(), js.CornerCutting(0.2, 0.65))
+    with pytest.raises(ValueError, match="C2"):
+        js.curvature_stencil(js.FourPoint())
+    with pytest.raises(TypeError, match="concrete"):
+        jax.jit(lambda w: js.smoothness(js.FourPoint(w)).holder_lower)(0.1)
+    with pytest.raises(TypeError, match="concrete"):
+        jax.jit(lambda w: js.eigen(js.FourPoint(w)).values)(0.1)
+    with pytest.raises(TypeError, match="curve scheme"):
+        js.smoothness([0.25, 0.75, 0.75, 0.25])
+    with pytest.raises(ValueError, match="at least 5 points"):
+        js.limit_points(_polygon(4), js.FourPoint(), boundary="open")
+    with pytest.raises(ValueError, match="clamped"):
+        js.limit_tangents(_polygon(), js.CubicBSpline(), boundary="clamped")
+    with pytest.raises(ValueError, match="clamped"):
+        js.limit_points(_polygon(), js.Daubechies(), boundary="clamped")
+    with pytest.raises(ValueError, match="shape"):
+        js.limit_points(np.zeros(5), js.CubicBSpline())
+    with pytest.raises(ValueError, match="d >= 2"):
+        js.limit_curvature(np.zeros((6, 1)), js.CubicBSpline())
+    with pytest.raises(ValueError, match="at"):
+        js.limit_stencil(js.CubicBSpline(), at="face")
+
+
+def test_analyze_report():
+    a = js.analyze(js.FourPoint())
+    assert a.interpolating and a.primal and a.curvature_stencil is None
+    assert a.smoothness.continuity == 1
+    text = str(a)
+    assert "FourPoint(w=0.0625)" in text and "interpolating" in text and "C^1" in text
+    d = js.analyze(js.Daubechies())
+    assert d.tangent_stencil is None and not d.interpolating and d.location == "edge"
+    c = js.analyze(js.CubicBSpline())
+    np.testing.assert_allclose(c.curvature_stencil, [1, -2, 1], atol=1e-13)
+    with pytest.raises(dataclasses_error()):
+        a.name = "x"
+
+
+def dataclasses_error():
+    import dataclasses
+
+    return dataclasses.FrozenInstanceError
