@@ -31,7 +31,7 @@ from ._analysis.local import (
     eigen as eigen,
     limit_stencil as limit_stencil,
     local_matrix as local_matrix,
-    neighbourhood as neighbourhood,
+    neighborhood as neighborhood,
     tangent_stencil as tangent_stencil,
 )
 from ._analysis.smoothness import Smoothness as Smoothness, smoothness as smoothness

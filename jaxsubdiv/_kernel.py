@@ -140,22 +140,22 @@ def open_levels(n: int, start: int, length: int, levels: int) -> tuple[int, int]
     return first, n
 
 
-def clamped_run(n: int, centre: float) -> tuple[int, int]:
+def clamped_run(n: int, center: float) -> tuple[int, int]:
     """(first, count) of the outputs at curve parameters in [0, n - 1] (one level)."""
-    first = math.ceil(centre)
-    last = math.floor(2 * (n - 1) + centre)
+    first = math.ceil(center)
+    last = math.floor(2 * (n - 1) + center)
     return first, last - first + 1
 
 
-def clamped_count(n: int, centre: float) -> int:
-    _, count = clamped_run(n, centre)
+def clamped_count(n: int, center: float) -> int:
+    _, count = clamped_run(n, center)
     # Primal schemes replace their two end outputs by the end points; dual ones add them.
-    return count if float(centre).is_integer() else count + 2
+    return count if float(center).is_integer() else count + 2
 
 
-def ghost_reach(n: int, start: int, length: int, centre: float) -> tuple[int, int]:
+def ghost_reach(n: int, start: int, length: int, center: float) -> tuple[int, int]:
     """How many ghost points one clamped level needs before and after the polygon."""
-    first, count = clamped_run(n, centre)
+    first, count = clamped_run(n, center)
     last_k = first + count - 1
     end = start + length - 1
     j_lo = -((end - first) // 2)  # ceil((first - end) / 2)
@@ -179,16 +179,16 @@ def with_ghosts(points: Array, before: int, after: int, kind: str) -> Array:
     return jnp.concatenate([head, points, tail], axis=-2)
 
 
-def clamped_level(points: Array, mask: Array, start: int, centre: float, kind: str) -> Array:
+def clamped_level(points: Array, mask: Array, start: int, center: float, kind: str) -> Array:
     """One clamped level: interior outputs from ghost-extended points, ends pinned."""
     n = points.shape[-2]
     length = mask.shape[-1]
-    before, after = ghost_reach(n, start, length, centre)
+    before, after = ghost_reach(n, start, length, center)
     extended = with_ghosts(points, before, after, kind)
-    first, count = clamped_run(n, centre)
+    first, count = clamped_run(n, center)
     # In the extended polygon index j is shifted by `before`, so output K by 2 * before.
     inner = apply_window(extended, polyphase(mask, start, 1), first + 2 * before, count)
     ends = points[..., :1, :], points[..., -1:, :]
-    if float(centre).is_integer():
+    if float(center).is_integer():
         return jnp.concatenate([ends[0], inner[..., 1:-1, :], ends[1]], axis=-2)
     return jnp.concatenate([ends[0], inner, ends[1]], axis=-2)

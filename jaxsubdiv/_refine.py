@@ -120,14 +120,14 @@ def _count(n, scheme, levels, boundary, creases) -> int:
     if creases:
         pieces = _segments(n, boundary, creases)
         total = sum(_count(len(p), scheme, levels, "clamped", ()) for p in pieces)
-        # Neighbouring pieces share their crease point; a closed curve shares one more.
+        # Neighboring pieces share their crease point; a closed curve shares one more.
         return total - (len(pieces) - 1) - (boundary == "closed")
     if boundary == "closed":
         return n * 2**levels
     if boundary == "open":
         return open_levels(n, scheme.mask_start, scheme.mask_length, levels)[1]
     for _ in range(levels):
-        n = clamped_count(n, scheme.centre)
+        n = clamped_count(n, scheme.center)
     return n
 
 
@@ -152,7 +152,7 @@ def _refine_static(points, scheme, levels, boundary, creases):
         first, count = open_levels(n, start, mask.shape[-1], levels)
         return apply_window(points, polyphase(mask, start, levels), first, count)
     for _ in range(levels):
-        points = clamped_level(points, mask, start, scheme.centre, scheme.clamp_ghost)
+        points = clamped_level(points, mask, start, scheme.center, scheme.clamp_ghost)
     return points
 
 

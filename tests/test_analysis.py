@@ -44,15 +44,15 @@ def test_cubic_bspline_stencils_and_eigenvalues():
     s = js.CubicBSpline()
     np.testing.assert_allclose(js.limit_stencil(s), np.array([1, 4, 1]) / 6, atol=1e-14)
     np.testing.assert_allclose(js.tangent_stencil(s), np.array([-1, 0, 1]) / 2, atol=1e-14)
-    # B''(0) = -2 and B''(+-1) = 1 for the centred cubic B-spline.
+    # B''(0) = -2 and B''(+-1) = 1 for the centered cubic B-spline.
     np.testing.assert_allclose(js.curvature_stencil(s), [1, -2, 1], atol=1e-13)
     np.testing.assert_allclose(js.eigen(s).values, [1, 0.5, 0.25], atol=1e-14)
-    assert js.neighbourhood(s) == (-1, 0, 1)
+    assert js.neighborhood(s) == (-1, 0, 1)
 
 
-def test_four_point_eigenvalues_on_five_point_neighbourhood():
+def test_four_point_eigenvalues_on_five_point_neighborhood():
     s = js.FourPoint(1 / 16)
-    assert js.neighbourhood(s) == (-2, -1, 0, 1, 2)
+    assert js.neighborhood(s) == (-2, -1, 0, 1, 2)
     assert js.local_matrix(s).shape == (5, 5)
     np.testing.assert_allclose(js.eigen(s).values, [1, 1 / 2, 1 / 4, 1 / 4, 1 / 8], atol=1e-7)
     # Classic tangent rule of the four-point scheme: (1, -8, 0, 8, -1)/12.
@@ -93,7 +93,7 @@ def _scipy_limit(P, scheme, degree, t):
     pad = degree + 3
     ext = np.array([P[(i - pad) % n] for i in range(n + 2 * pad)])
     spline = BSpline(np.arange(len(ext) + degree + 1, dtype=float), ext, degree)
-    return spline(t + scheme.centre - scheme.mask_start + pad)
+    return spline(t + scheme.center - scheme.mask_start + pad)
 
 
 @pytest.mark.parametrize("name, scheme, degree", bspline_schemes)
@@ -101,7 +101,7 @@ def _scipy_limit(P, scheme, degree, t):
 def test_limit_points_match_scipy_bspline(name, scheme, degree, levels):
     P = _polygon()
     Q = js.refine(P, scheme, levels)
-    c = scheme.centre
+    c = scheme.center
     t = np.arange(len(Q)) / 2**levels - c * (1 - 2.0**-levels)  # parameters of Q
     np.testing.assert_allclose(
         js.limit_points(Q, scheme), _scipy_limit(P, scheme, degree, t), atol=1e-12
@@ -111,7 +111,7 @@ def test_limit_points_match_scipy_bspline(name, scheme, degree, levels):
 @pytest.mark.parametrize("name, scheme, degree", bspline_schemes)
 def test_open_limit_points_match_scipy_bspline(name, scheme, degree):
     P = _polygon(12)
-    a = len(js.neighbourhood(scheme, "vertex")) // 2
+    a = len(js.neighborhood(scheme, "vertex")) // 2
     t = np.arange(a, len(P) - a)
     np.testing.assert_allclose(
         js.limit_points(P, scheme, boundary="open"),
@@ -135,13 +135,13 @@ def test_limit_tangents_match_finite_differences(scheme, rtol):
     P = _polygon(8)
     k, m = 12, 2**5  # refine 12 levels; difference over +-m fine steps
     R = np.asarray(js.refine(P, scheme, k))
-    c = scheme.centre
+    c = scheme.center
     tangents = np.asarray(js.limit_tangents(P, scheme))
     for j in range(len(P)):
         # Fine index K sits at t = (K + c)/2^k - c; find the points symmetric about t = j.
-        centre = 2**k * (j + c) - c
-        lo = math.floor(centre - m) if not float(centre).is_integer() else int(centre) - m
-        hi = 2 * centre - lo
+        center = 2**k * (j + c) - c
+        lo = math.floor(center - m) if not float(center).is_integer() else int(center) - m
+        hi = 2 * center - lo
         delta = (hi - lo) / 2**k
         fd = (R[int(hi) % len(R)] - R[lo % len(R)]) / delta
         np.testing.assert_allclose(tangents[j], fd, rtol=rtol, atol=rtol * np.abs(fd).max())

@@ -87,13 +87,13 @@ def test_bspline_family_refined_points_are_control_points_of_same_spline(name, s
 @pytest.mark.parametrize("name,scheme,degree", bspline_schemes, ids=ids(bspline_schemes))
 def test_bspline_family_polygon_converges_to_curve(name, scheme, degree):
     P = polygon(8)
-    c = scheme.centre
+    c = scheme.center
     errors = []
     for levels in (3, 4, 5, 6):
         Q = np.asarray(js.refine(P, scheme, levels))
         K = np.arange(len(Q))
         # Q_K sits at parameter K / 2^k - c (1 - 2^-k); the curve point there is
-        # sum_j P_j phi(x - j) with phi centred at c, i.e. scipy's curve at x + c.
+        # sum_j P_j phi(x - j) with phi centered at c, i.e. scipy's curve at x + c.
         t = K / 2**levels - c * (1 - 2.0**-levels)
         on_curve = bspline_curve(P, degree, scheme.mask_start, 1.0, (t + c) % 8)
         errors.append(np.abs(Q - on_curve).max())
@@ -190,7 +190,7 @@ def test_lane_riesenfeld_3_is_cubic_shifted_by_one():
     for levels in (1, 3):
         lr = np.asarray(js.refine(P, js.LaneRiesenfeld(3), levels))
         cubic = np.asarray(js.refine(P, js.CubicBSpline(), levels))
-        # Shift of index: LR output K is the cubic output K + (2^k - 1) (centre -1 vs 0).
+        # Shift of index: LR output K is the cubic output K + (2^k - 1) (center -1 vs 0).
         np.testing.assert_allclose(lr, np.roll(cubic, -(2**levels - 1), axis=0), atol=1e-14)
 
 
@@ -284,7 +284,7 @@ def test_cyclic_shift_equivariance(name, scheme):
     np.testing.assert_allclose(Qs, np.roll(Q, 3 * 2**levels, axis=0), atol=1e-14)
 
 
-# Masks symmetric about their centre (corner cutting only when r + s = 1).
+# Masks symmetric about their center (corner cutting only when r + s = 1).
 symmetric = [(n, s) for n, s in all_schemes() if n not in ("daubechies", "corner_cutting")]
 
 
@@ -293,7 +293,7 @@ def test_reversal_symmetry(name, scheme):
     P = polygon(8)
     levels = 3
     n, N = 8, 8 * 2**levels
-    c = scheme.centre
+    c = scheme.center
     Q = np.asarray(js.refine(P, scheme, levels))
     Qr = np.asarray(js.refine(P[::-1], scheme, levels))
     # With a symmetric mask a_k = a_{2c-k}: Q'_K = Q_{2^k (n-1) + 2c(2^k - 1) - K}.

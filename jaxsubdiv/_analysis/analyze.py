@@ -14,7 +14,7 @@ from .local import (
     eigen,
     local_matrix,
     natural_location,
-    neighbourhood,
+    neighborhood,
     stencil_values,
 )
 from .smoothness import Smoothness, smoothness
@@ -42,7 +42,7 @@ def is_interpolating(scheme: AbstractCurveScheme, tol: float = 1e-12) -> bool:
     if not scheme.is_primal:
         return False
     mask = np.asarray(scheme.mask(), dtype=np.float64)
-    c, start = int(scheme.centre), scheme.mask_start
+    c, start = int(scheme.center), scheme.mask_start
     for k in range(start, start + len(mask)):
         if (k - c) % 2 == 0 and abs(mask[k - start] - (k == c)) > tol:
             return False
@@ -69,7 +69,7 @@ class Analysis(eqx.Module):
       that point's basis function can be nonzero (e.g. `(-2, 2)` for the cubic B-spline).
     - `primal`, `interpolating`: whether refined points sit at the old vertices, and
       whether they are the old vertices.
-    - `location`, `neighbourhood`: where the local analysis is done (`"vertex"` for
+    - `location`, `neighborhood`: where the local analysis is done (`"vertex"` for
       primal, `"edge"` for dual schemes) and the relative positions of its points.
     - `local_matrix`, `eigenvalues`: [`jaxsubdiv.local_matrix`][] and its eigenvalues
       sorted by modulus.
@@ -87,7 +87,7 @@ class Analysis(eqx.Module):
     primal: bool
     interpolating: bool
     location: str
-    neighbourhood: tuple[Fraction, ...]
+    neighborhood: tuple[Fraction, ...]
     local_matrix: Float[Array, "m m"]
     eigenvalues: Inexact[Array, " m"]
     limit_stencil: Float[Array, " m"] | None
@@ -98,7 +98,7 @@ class Analysis(eqx.Module):
     def summary(self) -> str:
         """A multi-line, human-readable report."""
         lo, hi = self.support
-        positions = ", ".join(str(u) for u in self.neighbourhood)
+        positions = ", ".join(str(u) for u in self.neighborhood)
         lines = [
             self.name,
             f"  mask               {_fmt(self.mask)} on k = {self.mask_start}.."
@@ -106,7 +106,7 @@ class Analysis(eqx.Module):
             f"  support            ({lo:g}, {hi:g}) around each control point",
             f"  type               {'primal' if self.primal else 'dual'}, "
             f"{'interpolating' if self.interpolating else 'approximating'}",
-            f"  neighbourhood      {self.location}: ({positions})",
+            f"  neighborhood      {self.location}: ({positions})",
             f"  eigenvalues        {_fmt(self.eigenvalues)}",
             f"  limit stencil      {_fmt(self.limit_stencil)}",
             f"  tangent stencil    {_fmt(self.tangent_stencil)}",
@@ -159,7 +159,7 @@ def analyze(scheme: AbstractCurveScheme) -> Analysis:
         primal=scheme.is_primal,
         interpolating=is_interpolating(scheme),
         location=location,
-        neighbourhood=neighbourhood(scheme, location),
+        neighborhood=neighborhood(scheme, location),
         local_matrix=local_matrix(scheme),
         eigenvalues=eigen(scheme).values,
         limit_stencil=stencils[0],

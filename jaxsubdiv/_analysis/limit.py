@@ -21,7 +21,7 @@ from .._scheme.base import AbstractCurveScheme
 from .local import (
     basis_at_integers,
     check_scheme,
-    neighbourhood,
+    neighborhood,
     require_smoothness,
     stencil_values,
 )
@@ -59,7 +59,7 @@ def _open(points: Array, weights: Array, offsets: list[int], caller: str) -> Arr
     if count < 1:
         raise ValueError(
             f"`{caller}` with boundary='open' needs at least {lo + hi + 1} points for this "
-            f"scheme (its neighbourhood spans {lo + hi + 1} points), got n={n}."
+            f"scheme (its neighborhood spans {lo + hi + 1} points), got n={n}."
         )
     out = None
     for w, u in zip(weights, offsets):
@@ -129,7 +129,7 @@ def _derivative(points, scheme, order: int, boundary: str, caller: str) -> Array
 
 
 def _regular(points, scheme, order: int, boundary: str, caller: str) -> Array:
-    offsets = [int(u) for u in neighbourhood(scheme, "vertex")]
+    offsets = [int(u) for u in neighborhood(scheme, "vertex")]
     weights = stencil_values(scheme, order, "vertex").astype(points.dtype)
     if boundary == "closed":
         return _closed(points, weights, offsets)
@@ -151,8 +151,8 @@ _ARGS = """**Arguments:**
   enough is an error; with traced parameters that check (which runs on the host) is
   skipped, so check the parameter range once with [`jaxsubdiv.smoothness`][].
 - `boundary`: `"closed"` (periodic), or `"open"`: only the points whose parameter lies
-  on the open limit curve, i.e. whose whole neighbourhood is inside the polygon: points
-  `a .. n-1-a` with `a = len(neighbourhood(scheme, "vertex")) // 2` (cubic B-spline and
+  on the open limit curve, i.e. whose whole neighborhood is inside the polygon: points
+  `a .. n-1-a` with `a = len(neighborhood(scheme, "vertex")) // 2` (cubic B-spline and
   Chaikin `a = 1`, four-point `a = 2`). The same curve `refine(..., boundary="open")`
   converges to."""
 

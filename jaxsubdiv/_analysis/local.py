@@ -1,10 +1,10 @@
-r"""Local analysis of a curve scheme: invariant neighbourhoods, local subdivision
+r"""Local analysis of a curve scheme: invariant neighborhoods, local subdivision
 matrices, eigen-structure, and limit/derivative stencils.
 
 Conventions (shared with the refinement kernel). A scheme with mask $a_k$ refines by
 $Q_K = \sum_j a_{K-2j} P_j$. Its basis function $\varphi$ solves the refinement equation
 $\varphi(x) = \sum_k a_k \varphi(2x - k)$, is supported on $[k_0, k_1]$ (the first and
-last mask index) and is centred at $c$ = `scheme.centre`. The limit curve of control
+last mask index) and is centered at $c$ = `scheme.center`. The limit curve of control
 points $P_j$ is
 
 $$C(t) = \sum_j P_j\, \varphi(t + c - j),$$
@@ -65,7 +65,7 @@ def check_scheme(scheme, caller: str) -> AbstractCurveScheme:
 
 def natural_location(scheme: AbstractCurveScheme) -> At:
     """`"vertex"` for primal schemes, `"edge"` for dual ones: where the refined points of
-    one level sit at the same place as the coarse ones, so the neighbourhood is invariant."""
+    one level sit at the same place as the coarse ones, so the neighborhood is invariant."""
     return "vertex" if scheme.is_primal else "edge"
 
 
@@ -77,24 +77,24 @@ def check_at(at, scheme: AbstractCurveScheme, caller: str) -> At:
     return at
 
 
-def neighbourhood(scheme: AbstractCurveScheme, at: At | None = None) -> tuple[Fraction, ...]:
-    r"""Relative positions $u$ of the points in the neighbourhood of a vertex or an edge.
+def neighborhood(scheme: AbstractCurveScheme, at: At | None = None) -> tuple[Fraction, ...]:
+    r"""Relative positions $u$ of the points in the neighborhood of a vertex or an edge.
 
     These are the points whose basis function's open support contains the vertex
     (parameter $t = j$) or the edge midpoint ($t = j + \frac12$): with half-width
     $h = (L - 1)/2$ of a mask of length $L$, the positions $|u| < h$ that are integers
     (vertex) or half-integers (edge). The point at position $u$ is $P_{j + u}$ for a
     vertex and $P_{j + 1/2 + u}$ for an edge. For example the cubic B-spline's vertex
-    neighbourhood is $(-1, 0, 1)$, the four-point scheme's $(-2, \dots, 2)$, Chaikin's
-    edge neighbourhood $(-\frac12, \frac12)$.
+    neighborhood is $(-1, 0, 1)$, the four-point scheme's $(-2, \dots, 2)$, Chaikin's
+    edge neighborhood $(-\frac12, \frac12)$.
 
     At its natural location (a vertex of a primal scheme, an edge of a dual one) the
-    neighbourhood is invariant: after one level, the points at the same relative
+    neighborhood is invariant: after one level, the points at the same relative
     positions (in the finer spacing) depend only on it.
 
     **Returns:** a tuple of `fractions.Fraction`, increasing.
     """
-    at = check_at(at, scheme, "neighbourhood")
+    at = check_at(at, scheme, "neighborhood")
     h = Fraction(scheme.mask_length - 1, 2)
     offset = Fraction(0) if at == "vertex" else Fraction(1, 2)
     first = math.floor(-h - offset) + 1  # the smallest integer m with m + offset > -h
@@ -106,21 +106,21 @@ def neighbourhood(scheme: AbstractCurveScheme, at: At | None = None) -> tuple[Fr
     return tuple(out)
 
 
-def _neighbourhood_checked(scheme, at):
-    nbhd = neighbourhood(scheme, at)
+def _neighborhood_checked(scheme, at):
+    nbhd = neighborhood(scheme, at)
     if not nbhd:
-        raise ValueError(f"{type(scheme).__name__} has an empty neighbourhood at an {at}.")
+        raise ValueError(f"{type(scheme).__name__} has an empty neighborhood at an {at}.")
     return nbhd
 
 
 def local_matrix(scheme: AbstractCurveScheme) -> Float[Array, "m m"]:
-    r"""The subdivision matrix of the invariant neighbourhood of a vertex (primal schemes)
+    r"""The subdivision matrix of the invariant neighborhood of a vertex (primal schemes)
     or an edge (dual schemes).
 
     Entry $(u, v)$ is the weight of the coarse point at relative position $v$ in the fine
     point at relative position $u$ (in the fine spacing): $M_{uv} = a_{u - 2v + c}$, with
-    $u, v$ running over [`jaxsubdiv.neighbourhood`][] at the scheme's natural location
-    and $c$ the scheme's centre. Repeated refinement maps the neighbourhood's points by
+    $u, v$ running over [`jaxsubdiv.neighborhood`][] at the scheme's natural location
+    and $c$ the scheme's center. Repeated refinement maps the neighborhood's points by
     $M^k$, so its eigenvalues (1, then $\frac12$, $\frac14$, ... for a smooth scheme) and
     left eigenvectors give the limit and derivative stencils (Dyn and Levin 2002,
     section 2.3). For example the cubic B-spline gives
@@ -132,10 +132,10 @@ def local_matrix(scheme: AbstractCurveScheme) -> Float[Array, "m m"]:
     - `scheme`: a curve scheme; its parameters may be traced (the matrix is built with
       `jax.numpy` from the mask, so it is differentiable).
 
-    **Returns:** an `(m, m)` array, `m = len(neighbourhood(scheme))`.
+    **Returns:** an `(m, m)` array, `m = len(neighborhood(scheme))`.
     """
     scheme = check_scheme(scheme, "local_matrix")
-    nbhd = _neighbourhood_checked(scheme, natural_location(scheme))
+    nbhd = _neighborhood_checked(scheme, natural_location(scheme))
     c = Fraction(scheme.mask_start * 2 + scheme.mask_length - 1, 2)
     mask = scheme.mask()
     start, length = scheme.mask_start, scheme.mask_length
@@ -158,13 +158,13 @@ class Eigen(eqx.Module):
     - `left`: left eigenvectors as rows, `left[i] @ matrix = values[i] * left[i]`, scaled so
       that `left[i] @ right[:, i] = 1` where that product is not zero (a defective
       eigenvalue, i.e. a Jordan block, makes it zero).
-    - `neighbourhood`: the relative positions the rows and columns refer to.
+    - `neighborhood`: the relative positions the rows and columns refer to.
     """
 
     values: Inexact[Array, " m"]
     right: Inexact[Array, "m m"]
     left: Inexact[Array, "m m"]
-    neighbourhood: tuple[Fraction, ...] = eqx.field(static=True)
+    neighborhood: tuple[Fraction, ...] = eqx.field(static=True)
 
 
 def _sorted_eig(matrix: np.ndarray):
@@ -195,7 +195,7 @@ def eigen(scheme: AbstractCurveScheme) -> Eigen:
     scheme with $w = \frac1{16}$ has $1, \frac12, \frac14, \frac14, \frac18$, and the
     left eigenvector for eigenvalue 1, scaled to sum to one, is the limit stencil.
 
-    **Returns:** an [`jaxsubdiv.Eigen`][] with `values`, `right`, `left` and `neighbourhood`.
+    **Returns:** an [`jaxsubdiv.Eigen`][] with `values`, `right`, `left` and `neighborhood`.
     """
     scheme = check_scheme(scheme, "eigen")
     matrix = local_matrix(scheme)
@@ -231,7 +231,7 @@ def eigen(scheme: AbstractCurveScheme) -> Eigen:
         cast = lambda x: jnp.asarray(x, dtype)
     else:
         cast = jnp.asarray
-    return Eigen(cast(values), cast(right), cast(left), neighbourhood(scheme))
+    return Eigen(cast(values), cast(right), cast(left), neighborhood(scheme))
 
 
 # --------------------------------------------------------------------------------------
@@ -287,8 +287,8 @@ def basis_values(mask: Array, start: int, order: int, where) -> Array:
 
 
 def stencil_values(scheme: AbstractCurveScheme, order: int, at: At) -> Array:
-    """Weights $\\varphi^{(p)}(c - u)$ over the neighbourhood at `at` (no smoothness check)."""
-    nbhd = _neighbourhood_checked(scheme, at)
+    """Weights $\\varphi^{(p)}(c - u)$ over the neighborhood at `at` (no smoothness check)."""
+    nbhd = _neighborhood_checked(scheme, at)
     c = Fraction(scheme.mask_start * 2 + scheme.mask_length - 1, 2)
     return basis_values(scheme.mask(), scheme.mask_start, order, [c - u for u in nbhd])
 
@@ -340,7 +340,7 @@ def limit_stencil(scheme: AbstractCurveScheme, *, at: At | None = None) -> Float
 
     The limit of vertex $P_j$ is $C(j) = \sum_u w_u P_{j+u}$ and the limit of edge
     $(P_j, P_{j+1})$ is $C(j + \frac12) = \sum_u w_u P_{j + 1/2 + u}$, with $u$ running over
-    [`jaxsubdiv.neighbourhood`][]`(scheme, at)` and $w_u = \varphi(c - u)$. The weights are
+    [`jaxsubdiv.neighborhood`][]`(scheme, at)` and $w_u = \varphi(c - u)$. The weights are
     the left eigenvector of [`jaxsubdiv.local_matrix`][] for eigenvalue 1 (at the natural
     location), scaled to sum to one. Examples: cubic B-spline $(1, 4, 1)/6$; Chaikin at an
     edge $(\frac12, \frac12)$, at a vertex $(1, 6, 1)/8$; interpolating schemes
@@ -355,7 +355,7 @@ def limit_stencil(scheme: AbstractCurveScheme, *, at: At | None = None) -> Float
     - `at`: `"vertex"`, `"edge"`, or `None` for the natural location (vertex for primal
       schemes, edge for dual ones). Keyword only.
 
-    **Returns:** a 1-D array over the neighbourhood.
+    **Returns:** a 1-D array over the neighborhood.
     """
     return _stencil(scheme, 0, at, "limit_stencil")
 
@@ -372,7 +372,7 @@ def tangent_stencil(scheme: AbstractCurveScheme, *, at: At | None = None) -> Flo
     error (the tangent does not exist); with traced parameters the check is skipped, so
     check the range once with [`jaxsubdiv.smoothness`][].
 
-    **Returns:** a 1-D array over the neighbourhood.
+    **Returns:** a 1-D array over the neighborhood.
     """
     return _stencil(scheme, 1, at, "tangent_stencil")
 
@@ -386,6 +386,6 @@ def curvature_stencil(
     schemes only (cubic B-spline: $(1, -2, 1)$). The curvature of a planar limit curve is
     $\kappa = (C' \times C'')/|C'|^3$; see [`jaxsubdiv.limit_curvature`][].
 
-    **Returns:** a 1-D array over the neighbourhood.
+    **Returns:** a 1-D array over the neighborhood.
     """
     return _stencil(scheme, 2, at, "curvature_stencil")

@@ -50,19 +50,19 @@ class AbstractCurveScheme(eqx.Module):
         return int(self.mask().shape[-1])
 
     @property
-    def centre(self) -> float:
-        """Symmetry centre $c$ of the mask, $(\\text{first} + \\text{last})/2$.
+    def center(self) -> float:
+        """Symmetry center $c$ of the mask, $(\\text{first} + \\text{last})/2$.
 
         Output $Q^{(k)}_K$ after $k$ levels sits at curve parameter
         $K/2^k - c(1 - 2^{-k})$ when control point $P_j$ sits at parameter $j$.
-        An integer centre is a *primal* scheme (outputs at vertices and edge midpoints),
-        a half-integer centre a *dual* one (two outputs inside every edge).
+        An integer center is a *primal* scheme (outputs at vertices and edge midpoints),
+        a half-integer center a *dual* one (two outputs inside every edge).
         """
         return self.mask_start + (self.mask_length - 1) / 2
 
     @property
     def is_primal(self) -> bool:
-        return float(self.centre).is_integer()
+        return float(self.center).is_integer()
 
     def __check_init__(self):
         # `mask_start` must be a plain int; it sets shapes.

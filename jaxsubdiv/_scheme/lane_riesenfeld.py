@@ -13,7 +13,7 @@ class LaneRiesenfeld(AbstractCurveScheme):
 
     One level splits every edge at its midpoint ($Q_{2i} = P_i$,
     $Q_{2i+1} = (P_i + P_{i+1})/2$) and then makes `degree - 1` passes that replace
-    each point by the average of itself and its next neighbour. The mask is the binomial
+    each point by the average of itself and its next neighbor. The mask is the binomial
     row $\binom{d+1}{k} / 2^d$ on $k = -d, \dots, 1$, and the limit is the uniform
     B-spline of degree $d$ (order $d + 1$), which is $C^{d-1}$.
 
