@@ -17,7 +17,7 @@ from ._scheme.four_point import FourPoint as FourPoint
 from ._scheme.lane_riesenfeld import LaneRiesenfeld as LaneRiesenfeld
 from ._scheme.mask_scheme import MaskScheme as MaskScheme
 from ._scheme.split_tweak import Jarek as Jarek, SplitTweak as SplitTweak
-from . import shapes as shapes
+from . import shapes as shapes, surfaces as surfaces
 from ._analysis.analyze import Analysis as Analysis, analyze as analyze
 from ._analysis.limit import (
     limit_curvature as limit_curvature,

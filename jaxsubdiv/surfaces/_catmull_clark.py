@@ -1,0 +1,131 @@
+import numpy as np
+
+from ._base import AbstractSurfaceScheme, Level, LimitStencils, refined_tags, ring_positions, vertex_rule
+from ._stencil import Sparse
+from ._topology import SMOOTH, Topology, build_topology
+
+
+def _face_points(topo: Topology) -> Sparse:
+    """`[I; centroids]`: the base vertices followed by one centroid per face."""
+    V, F = topo.num_vertices, topo.num_faces
+    centroid = Sparse.build(topo.face, topo.origin, 1 / topo.sizes[topo.face], (F, V))
+    return Sparse.stack([Sparse.identity(V), centroid])
+
+
+class CatmullClark(AbstractSurfaceScheme):
+    r"""Catmull-Clark subdivision (1978) for meshes of any polygons.
+
+    Every $k$-gon is split into $k$ quads around a new *face point* (its centroid);
+    *edge points* are $\frac14(a + b + f_0 + f_1)$ with $f_0, f_1$ the face points of
+    the two faces on the edge; a smooth vertex of valence $n$ moves to
+    $\frac{n-2}{n}v + \frac1{n^2}\sum_i e_i + \frac1{n^2}\sum_i f_i$ (the form in
+    DeRose, Kass and Truong 1998; $e_i$ its edge neighbors, $f_i$ the face points
+    around it). After one level every face is a quad. On a regular quad grid the limit
+    is the bicubic tensor-product uniform B-spline ($C^2$); at extraordinary vertices
+    it is $C^1$.
+
+    Boundary edges and tagged creases follow the cubic B-spline curve rules (edge
+    midpoint, vertex $\frac18 a + \frac34 v + \frac18 b$); corners (tagged, a boundary
+    vertex in a single face, or a vertex on three or more sharp edges) are kept. A
+    vertex on one crease (a *dart*) uses the smooth rule.
+
+    The usual scheme for quad-dominant meshes (film, CAD). Refined vertex order: the
+    $V$ vertex points, then one edge point per edge (lexicographic order of the
+    sorted edge), then one face point per face.
+
+    References: E. Catmull and J. Clark, "Recursively generated B-spline surfaces on
+    arbitrary topological meshes", Computer-Aided Design 10 (1978); T. DeRose, M. Kass
+    and T. Truong, "Subdivision surfaces in character animation", SIGGRAPH 1998.
+    """
+
+    def level(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> Level:
+        topo = topology
+        V, E, F = topo.num_vertices, topo.num_edges, topo.num_faces
+        n = np.maximum(topo.valence.astype(np.float64), 1.0)
+        # Rows refer to [base vertices, face points]: columns V + f are face points.
+        rows, cols, weights = vertex_rule(topo, (n - 2) / n, 1 / n**2, (3 / 4, 1 / 8))
+        smooth = topo.vertex_type[topo.origin] == SMOOTH
+        rows.append(topo.origin[smooth])
+        cols.append(V + topo.face[smooth])
+        weights.append(1 / n[topo.origin[smooth]] ** 2)
+        a, b = topo.edges[:, 0], topo.edges[:, 1]
+        end = np.where(topo.sharp_edge, 1 / 2, 1 / 4)
+        rows += [V + np.arange(E), V + np.arange(E)]
+        cols += [a, b]
+        weights += [end, end]
+        h = np.flatnonzero(~topo.sharp_edge[topo.edge])
+        rows.append(V + topo.edge[h])
+        cols.append(V + topo.face[h])
+        weights.append(np.full(len(h), 1 / 4))
+        rows.append(V + E + np.arange(F))
+        cols.append(V + np.arange(F))
+        weights.append(np.ones(F))
+        local = Sparse.build(
+            np.concatenate(rows), np.concatenate(cols), np.concatenate(weights), (V + E + F, V + F)
+        )
+        stencil = local @ _face_points(topo)
+        h = np.arange(topo.num_half_edges)
+        faces = np.stack(
+            [topo.origin, V + topo.edge, V + E + topo.face, V + topo.edge[topo.prev[h]]], 1
+        )
+        new_creases, new_corners = refined_tags(topo, corners, V)
+        return Level(stencil, faces, new_creases, new_corners)
+
+    def limit(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> LimitStencils:
+        r"""Limit stencils of Halstead, Kass and DeRose (1993).
+
+        On an all-quad mesh, a smooth vertex of valence $n$ with edge neighbors $e_i$
+        and diagonal neighbors $f_i$ (ordered counter-clockwise) has limit position
+        $(n^2 v + 4\sum_i e_i + \sum_i f_i) / (n(n + 5))$ and tangents
+        $\sum_i A_n\cos\frac{2\pi i}{n} e_i + (\cos\frac{2\pi i}{n} +
+        \cos\frac{2\pi(i+1)}{n}) f_i$ (and the same with $\sin$), where
+        $A_n = 1 + \cos\frac{2\pi}{n} + \cos\frac{\pi}{n}\sqrt{2(9 + \cos\frac{2\pi}{n})}$.
+        Crease vertices: $\frac16 a + \frac23 v + \frac16 b$; corners: $v$. A mesh with
+        non-quad faces is refined once first (vertex $v$ keeps its index) and the
+        stencils composed with that level.
+
+        Reference: M. Halstead, M. Kass and T. DeRose, "Efficient, fair interpolation
+        using Catmull-Clark surfaces", SIGGRAPH 1993, eqs. (4)-(5) and Appendix A.
+        """
+        topo = topology
+        V = topo.num_vertices
+        if np.any(topo.sizes != 4):
+            first = self.level(topo, creases, corners)
+            fine = build_topology(first.faces, first.stencil.shape[0], first.creases, first.corners)
+            stencils = self.limit(fine, first.creases, first.corners)
+            keep = np.arange(V)
+            coarse = [
+                s.take_rows(keep) @ first.stencil
+                for s in (stencils.position, stencils.tangent_u, stencils.tangent_v)
+            ]
+            return LimitStencils(*coarse, stencils.smooth[:V])
+        n = topo.valence.astype(np.float64)
+        safe = np.maximum(n, 1.0)
+        rows, cols, weights = vertex_rule(
+            topo, n / (safe + 5), 4 / (safe * (safe + 5)), (2 / 3, 1 / 6)
+        )
+        smooth = topo.vertex_type[topo.origin] == SMOOTH
+        hs = np.flatnonzero(smooth)
+        rows.append(topo.origin[hs])
+        cols.append(topo.origin[topo.next[topo.next[hs]]])
+        weights.append(1 / (n[topo.origin[hs]] * (n[topo.origin[hs]] + 5)))
+        position = Sparse.build(np.concatenate(rows), np.concatenate(cols), np.concatenate(weights), (V, V))
+        h, rank, valence = ring_positions(topo)
+        theta = 2 * np.pi / valence
+        a_n = 1 + np.cos(theta) + np.cos(theta / 2) * np.sqrt(2 * (9 + np.cos(theta)))
+        v = topo.origin[h]
+        edge_nb = topo.origin[topo.next[h]]
+        diag_nb = topo.origin[topo.next[topo.next[h]]]
+        tables = []
+        for trig in (np.cos, np.sin):
+            w_edge = a_n * trig(theta * rank)
+            w_diag = trig(theta * rank) + trig(theta * (rank + 1))
+            tables.append(
+                Sparse.build(
+                    np.concatenate([v, v]),
+                    np.concatenate([edge_nb, diag_nb]),
+                    np.concatenate([w_edge, w_diag]),
+                    (V, V),
+                )
+            )
+        return LimitStencils(position, *tables, topo.vertex_type == SMOOTH)

@@ -1,0 +1,103 @@
+import numpy as np
+
+from ._base import AbstractSurfaceScheme, Level, LimitStencils, refined_tags, ring_positions, vertex_rule
+from ._stencil import Sparse
+from ._topology import SMOOTH, Topology
+
+
+def loop_beta(n: np.ndarray) -> np.ndarray:
+    r"""Loop's vertex weight $\beta(n) = \frac1n\left(\frac58 - (\frac38 + \frac14\cos\frac{2\pi}{n})^2\right)$."""
+    n = np.maximum(np.asarray(n, np.float64), 1.0)
+    return (5 / 8 - (3 / 8 + np.cos(2 * np.pi / n) / 4) ** 2) / n
+
+
+class Loop(AbstractSurfaceScheme):
+    r"""Loop subdivision (Loop 1987) for triangle meshes: the quartic box spline.
+
+    Each triangle is split into four. New *edge points* are $\frac38(a + b) +
+    \frac18(c + d)$ for an edge $(a, b)$ with opposite vertices $c, d$; a smooth vertex
+    of valence $n$ moves to $(1 - n\beta)v + \beta\sum_i p_i$ with
+    $\beta(n) = \frac1n\left(\frac58 - (\frac38 + \frac14\cos\frac{2\pi}n)^2\right)$.
+    On a regular (valence-6) region the limit is the three-direction quartic box
+    spline: $C^2$; at extraordinary vertices it is $C^1$.
+
+    Boundary edges and tagged creases follow the cubic B-spline curve rules (edge
+    midpoint, vertex $\frac18 a + \frac34 v + \frac18 b$); corners (tagged, a boundary
+    vertex in a single triangle, or a vertex on three or more sharp edges) are kept
+    (Hoppe et al. 1994). A vertex on one crease (a *dart*) uses the smooth rule.
+
+    Use it for triangle meshes; for quads or mixed polygons use
+    [`jaxsubdiv.surfaces.CatmullClark`][].
+
+    Refined vertex order: the $V$ vertex points (same order as the input), then one
+    edge point per edge in lexicographic order of the sorted edge (see `Mesh.edges`).
+
+    References: C. Loop, "Smooth subdivision surfaces based on triangles", MS thesis,
+    University of Utah, 1987; H. Hoppe et al., "Piecewise smooth surface
+    reconstruction", SIGGRAPH 1994.
+    """
+
+    def level(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> Level:
+        topo = topology
+        if np.any(topo.sizes != 3):
+            f = int(np.argmax(topo.sizes != 3))
+            raise ValueError(
+                f"Loop subdivision needs a triangle mesh, but face {f} has "
+                f"{int(topo.sizes[f])} vertices. Triangulate the mesh, or use "
+                "`CatmullClark()` or `DooSabin()`, which take any polygons."
+            )
+        V, E = topo.num_vertices, topo.num_edges
+        n = topo.valence.astype(np.float64)
+        beta = loop_beta(n)
+        rows, cols, weights = vertex_rule(topo, 1 - n * beta, beta, (3 / 4, 1 / 8))
+        # Edge points: sharp edges take the midpoint, smooth ones 3/8 and 1/8.
+        a, b = topo.edges[:, 0], topo.edges[:, 1]
+        end = np.where(topo.sharp_edge, 1 / 2, 3 / 8)
+        rows += [V + np.arange(E), V + np.arange(E)]
+        cols += [a, b]
+        weights += [end, end]
+        h = np.flatnonzero(~topo.sharp_edge[topo.edge])
+        rows.append(V + topo.edge[h])
+        cols.append(topo.origin[topo.prev[h]])  # the vertex opposite the edge
+        weights.append(np.full(len(h), 1 / 8))
+        stencil = Sparse.build(
+            np.concatenate(rows), np.concatenate(cols), np.concatenate(weights), (V + E, V)
+        )
+        # Four triangles per triangle, orientation kept.
+        h0 = topo.offsets[:-1]
+        h1, h2 = topo.next[h0], topo.prev[h0]
+        p0, p1, p2 = topo.origin[h0], topo.origin[h1], topo.origin[h2]
+        m0, m1, m2 = V + topo.edge[h0], V + topo.edge[h1], V + topo.edge[h2]
+        faces = np.stack(
+            [
+                np.stack([p0, m0, m2], 1),
+                np.stack([p1, m1, m0], 1),
+                np.stack([p2, m2, m1], 1),
+                np.stack([m0, m1, m2], 1),
+            ],
+            axis=1,
+        ).reshape(-1, 3)
+        new_creases, new_corners = refined_tags(topo, corners, V)
+        return Level(stencil, faces, new_creases, new_corners)
+
+    def limit(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> LimitStencils:
+        r"""Limit stencils from the eigenvectors of Loop's local subdivision matrix.
+
+        Position at a smooth vertex: $(1 - n\chi)v + \chi\sum_i p_i$ with
+        $\chi = 1/(\frac{3}{8\beta} + n)$; tangents $\sum_i \cos\frac{2\pi i}{n} p_i$ and
+        $\sum_i \sin\frac{2\pi i}{n} p_i$ over the ordered ring (Loop 1987; Hoppe et al.
+        1994). Crease vertices: the cubic B-spline curve limit $\frac16 a + \frac23 v
+        + \frac16 b$; corners: $v$.
+        """
+        topo = topology
+        V = topo.num_vertices
+        n = topo.valence.astype(np.float64)
+        chi = 1 / (3 / (8 * loop_beta(n)) + np.maximum(n, 1))
+        rows, cols, weights = vertex_rule(topo, 1 - n * chi, chi, (2 / 3, 1 / 6))
+        position = Sparse.build(np.concatenate(rows), np.concatenate(cols), np.concatenate(weights), (V, V))
+        h, rank, valence = ring_positions(topo)
+        angle = 2 * np.pi * rank / valence
+        neighbor = topo.origin[topo.next[h]]
+        tu = Sparse.build(topo.origin[h], neighbor, np.cos(angle), (V, V))
+        tv = Sparse.build(topo.origin[h], neighbor, np.sin(angle), (V, V))
+        return LimitStencils(position, tu, tv, topo.vertex_type == SMOOTH)

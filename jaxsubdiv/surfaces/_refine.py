@@ -1,0 +1,269 @@
+"""Refiners and limit evaluators: topology once on the host, a stencil kernel per call."""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float, Int
+
+from .._misc import as_float_array, static_int
+from ._base import AbstractSurfaceScheme
+from ._mesh import Mesh
+from ._stencil import Sparse, StencilTable
+from ._topology import build_topology
+
+
+def _check(mesh, scheme) -> None:
+    if not isinstance(mesh, Mesh):
+        raise TypeError(
+            "`mesh` must be a `jaxsubdiv.surfaces.Mesh(vertices, faces)`, got "
+            f"{type(mesh).__name__}."
+        )
+    if not isinstance(scheme, AbstractSurfaceScheme):
+        raise TypeError(
+            "`scheme` must be a surface scheme: `Loop()`, `CatmullClark()` or "
+            f"`DooSabin()`; got {type(scheme).__name__}."
+        )
+
+
+def _topology(mesh: Mesh, num_vertices: int | None = None):
+    n = mesh.num_vertices if num_vertices is None else num_vertices
+    return build_topology(mesh.faces, n, mesh.creases, mesh.corners)
+
+
+class Refiner(eqx.Module):
+    """Refine vertex data on a fixed mesh topology by a given number of levels.
+
+    The topology is refined once, on the host, into one
+    [`jaxsubdiv.surfaces.StencilTable`][] per level (each level's vertices as weighted
+    sums of the previous level's), the split OpenSubdiv makes between topology
+    refinement and stencil evaluation. Calling the refiner applies the tables in turn,
+    so new positions or per-vertex features on the same mesh cost one jitted kernel per
+    level: use it inside an optimization loop, under `jax.grad`, or on batches with
+    `jax.vmap` or leading axes.
+
+    The per-level tables hold fewer entries in total than the single composite table
+    (base vertices straight to level `levels`, available from `composite()`), and are
+    much cheaper to build; the benchmark compares both (`docs/surfaces.md`).
+
+    ```python
+    refiner = Refiner(mesh, CatmullClark(), levels=2)
+    loss = lambda v: jnp.sum(refiner(v) ** 2)
+    jax.grad(loss)(mesh.vertices)
+    ```
+
+    Attributes: `tables` (one stencil table per level), `levels`, `scheme`, and the
+    refined topology as `faces`, `creases`, `corners` (numpy).
+    """
+
+    tables: tuple[StencilTable, ...]
+    scheme: AbstractSurfaceScheme
+    levels: int = eqx.field(static=True)
+    num_base_vertices: int = eqx.field(static=True)
+    _template: Mesh
+
+    def __init__(self, mesh: Mesh, scheme: AbstractSurfaceScheme, levels: int = 1):
+        """**Arguments:**
+
+        - `mesh`: the base [`jaxsubdiv.surfaces.Mesh`][]. Only its topology (faces,
+          tags, number of vertices) is used; its vertex data may be anything.
+        - `scheme`: `Loop()`, `CatmullClark()` or `DooSabin()`.
+        - `levels`: number of refinement levels (a Python int, at least 0).
+        """
+        _check(mesh, scheme)
+        levels = static_int(levels, "levels", minimum=0)
+        count = mesh.num_vertices
+        faces, creases, corners = mesh.faces, mesh.creases, mesh.corners
+        tables = []
+        topo = build_topology(faces, count, creases, corners)
+        for level in range(levels):
+            if level:
+                topo = build_topology(faces, count, creases, corners)
+            step = scheme.level(topo, creases, corners)
+            tables.append(StencilTable.from_sparse(step.stencil))
+            count = step.stencil.shape[0]
+            faces, creases, corners = step.faces, step.creases, step.corners
+        self.tables = tuple(tables)
+        self.scheme = scheme
+        self.levels = levels
+        self.num_base_vertices = mesh.num_vertices
+        self._template = Mesh(np.zeros((count, 0)), faces, creases=creases, corners=corners)
+
+    def __call__(self, vertices: Float[ArrayLike, "*batch V C"]) -> Float[Array, "*batch N C"]:
+        """The refined vertex data, `(..., N, C)` for `(..., V, C)` base data."""
+        vertices = as_float_array(vertices, "vertices")
+        if vertices.ndim < 2 or vertices.shape[-2] != self.num_base_vertices:
+            raise ValueError(
+                f"`vertices` must have shape (..., {self.num_base_vertices}, channels) for "
+                f"this mesh, got {vertices.shape}."
+            )
+        for table in self.tables:  # `levels` is static: a fixed chain of kernels
+            vertices = table(vertices)
+        return vertices
+
+    def composite(self) -> StencilTable:
+        """One table from the base vertices straight to the refined ones (host-built)."""
+        total = Sparse.identity(self.num_base_vertices)
+        for table in self.tables:
+            step = Sparse(*(np.asarray(a) for a in (table.rows, table.cols, table.weights)),
+                          (table.num_rows, table.num_cols))  # fmt: skip
+            total = step @ total
+        return StencilTable.from_sparse(total)
+
+    def mesh(self, vertices: Float[ArrayLike, "V C"]) -> Mesh:
+        """The refined [`jaxsubdiv.surfaces.Mesh`][] for base vertex data `vertices`."""
+        refined = self(vertices)
+        if refined.ndim != 2:
+            raise ValueError("`Refiner.mesh` takes one `(V, C)` vertex array; call the refiner for batches.")
+        return eqx.tree_at(lambda m: m.vertices, self._template, refined)
+
+    @property
+    def faces(self) -> np.ndarray:
+        """Faces of the refined mesh (`-1`-padded, read-only numpy)."""
+        return self._template.faces
+
+    @property
+    def creases(self) -> np.ndarray:
+        return self._template.creases
+
+    @property
+    def corners(self) -> np.ndarray:
+        return self._template.corners
+
+    @property
+    def num_vertices(self) -> int:
+        """Number of refined vertices."""
+        return self._template.num_vertices
+
+
+def refine_mesh(mesh: Mesh, scheme: AbstractSurfaceScheme, levels: int = 1) -> Mesh:
+    """Refine `mesh` by `levels` levels of `scheme`.
+
+    A convenience for `Refiner(mesh, scheme, levels).mesh(mesh.vertices)`: the topology
+    is analyzed on every call, so to refine new positions on the same mesh repeatedly
+    keep a [`jaxsubdiv.surfaces.Refiner`][] instead. Works under `eqx.filter_jit`
+    (the topology is static), `jax.grad` and `jax.vmap` with respect to the vertices.
+
+    **Arguments:**
+
+    - `mesh`: a [`jaxsubdiv.surfaces.Mesh`][].
+    - `scheme`: `Loop()`, `CatmullClark()` or `DooSabin()`.
+    - `levels`: number of levels, a Python int >= 0.
+
+    **Returns:**
+
+    The refined `Mesh`, with tagged creases and corners carried over.
+    """
+    return Refiner(mesh, scheme, levels).mesh(mesh.vertices)
+
+
+def _safe_normalize(x: Float[Array, "... 3"]) -> Float[Array, "... 3"]:
+    """`x / |x|`, and zero (with zero gradient, not NaN) where `x` is zero."""
+    sq = jnp.sum(x * x, axis=-1, keepdims=True)
+    ok = sq > 0
+    return jnp.where(ok, x / jnp.sqrt(jnp.where(ok, sq, 1.0)), 0.0)
+
+
+class Limit(eqx.Module):
+    """Limit positions, tangents and normals at the vertices of a fixed mesh topology.
+
+    The limit of subdivision at each base vertex (where the infinitely refined surface
+    passes through the point that vertex becomes) is a fixed linear combination of
+    nearby base vertices, given by the left eigenvectors of the local subdivision
+    matrix. These combinations are stored as stencil tables, so evaluating them for new
+    positions is one kernel, differentiable and batched like
+    [`jaxsubdiv.surfaces.Refiner`][].
+
+    Tangents and normals are exact at *smooth* vertices (interior, at most one tagged
+    crease edge), of any valence. At boundary, crease and corner vertices the limit
+    surface has no single tangent plane; there `tangents` returns zeros and `normals`
+    returns an approximation: the normalized sum of the cross products of the limit
+    positions' face edges around the vertex.
+
+    Available for `Loop()` and `CatmullClark()`.
+    """
+
+    position: StencilTable
+    tangent_u: StencilTable
+    tangent_v: StencilTable
+    smooth: Bool[Array, " V"]
+    corner_triples: Int[Array, "K 3"]
+
+    def __init__(self, mesh: Mesh, scheme: AbstractSurfaceScheme):
+        """**Arguments:**
+
+        - `mesh`: the base [`jaxsubdiv.surfaces.Mesh`][] (only its topology is used).
+        - `scheme`: `Loop()` or `CatmullClark()`.
+        """
+        _check(mesh, scheme)
+        topo = _topology(mesh)
+        stencils = scheme.limit(topo, mesh.creases, mesh.corners)
+        self.position = StencilTable.from_sparse(stencils.position)
+        self.tangent_u = StencilTable.from_sparse(stencils.tangent_u)
+        self.tangent_v = StencilTable.from_sparse(stencils.tangent_v)
+        self.smooth = jnp.asarray(stencils.smooth)
+        # (previous, vertex, next) around every corner of a non-smooth vertex.
+        h = np.flatnonzero(~stencils.smooth[topo.origin])
+        self.corner_triples = jnp.asarray(
+            np.stack([topo.origin[topo.prev[h]], topo.origin[h], topo.origin[topo.next[h]]], 1),
+            jnp.int32,
+        ).reshape(-1, 3)
+
+    def positions(self, vertices: Float[ArrayLike, "*batch V C"]) -> Float[Array, "*batch V C"]:
+        """Limit positions (any channels), one per base vertex, same order."""
+        return self.position(vertices)
+
+    def tangents(
+        self, vertices: Float[ArrayLike, "*batch V C"]
+    ) -> tuple[Float[Array, "*batch V C"], Float[Array, "*batch V C"]]:
+        """Two limit tangent vectors per vertex (unnormalized; zero at non-smooth vertices).
+
+        Their cross product points to the side the faces' counter-clockwise orientation
+        points to.
+        """
+        return self.tangent_u(vertices), self.tangent_v(vertices)
+
+    def normals(self, vertices: Float[ArrayLike, "*batch V 3"]) -> Float[Array, "*batch V 3"]:
+        """Unit limit normals, one per base vertex (`C = 3` only)."""
+        vertices = jnp.asarray(vertices)
+        if vertices.shape[-1] != 3:
+            raise ValueError(f"`normals` needs 3-d positions, got {vertices.shape[-1]} channels.")
+        tu, tv = self.tangents(vertices)
+        exact = jnp.cross(tu, tv)
+        limit = self.positions(vertices)
+        u, v, w = (limit[..., self.corner_triples[:, k], :] for k in range(3))
+        corner = jnp.cross(w - v, u - v)
+        approx = jnp.zeros_like(limit).at[..., self.corner_triples[:, 1], :].add(corner)
+        return _safe_normalize(jnp.where(self.smooth[:, None], exact, approx))
+
+
+def limit_positions(mesh: Mesh, scheme: AbstractSurfaceScheme) -> Float[Array, "V C"]:
+    """The limit position of every vertex of `mesh` under `scheme`, in vertex order.
+
+    A convenience for `Limit(mesh, scheme).positions(mesh.vertices)`; keep a
+    [`jaxsubdiv.surfaces.Limit`][] to evaluate new positions on the same topology.
+
+    **Arguments:**
+
+    - `mesh`: a [`jaxsubdiv.surfaces.Mesh`][].
+    - `scheme`: `Loop()` or `CatmullClark()`.
+
+    **Returns:**
+
+    `(V, C)` limit points.
+    """
+    return Limit(mesh, scheme).positions(mesh.vertices)
+
+
+def limit_normals(mesh: Mesh, scheme: AbstractSurfaceScheme) -> Float[Array, "V 3"]:
+    """Unit limit normals at the vertices of `mesh` (see [`jaxsubdiv.surfaces.Limit`][]).
+
+    **Arguments:**
+
+    - `mesh`: a [`jaxsubdiv.surfaces.Mesh`][] with 3-d vertices.
+    - `scheme`: `Loop()` or `CatmullClark()`.
+
+    **Returns:**
+
+    `(V, 3)` unit normals, exact from the limit tangents at smooth vertices.
+    """
+    return Limit(mesh, scheme).normals(mesh.vertices)

@@ -1,0 +1,188 @@
+"""Stencil tables: sparse linear maps from base vertices to refined or limit vertices.
+
+Built on the host as a coordinate list (`Sparse`), composed on the host, then frozen into
+a [`jaxsubdiv.surfaces.StencilTable`][] whose application is one jitted gather, multiply
+and segment-sum.
+"""
+
+import dataclasses
+import functools as ft
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float, Int, Shaped
+
+from .._misc import as_float_array
+
+
+@dataclasses.dataclass(frozen=True)
+class Sparse:
+    """A host-side sparse matrix in coordinate form, rows sorted, duplicates summed."""
+
+    rows: np.ndarray
+    cols: np.ndarray
+    weights: np.ndarray
+    shape: tuple[int, int]
+
+    @staticmethod
+    def build(rows, cols, weights, shape) -> "Sparse":
+        """Sum duplicate entries, drop zeros and sort by (row, column)."""
+        rows = np.asarray(rows, np.int64).reshape(-1)
+        cols = np.asarray(cols, np.int64).reshape(-1)
+        weights = np.broadcast_to(np.asarray(weights, np.float64), rows.shape).reshape(-1)
+        keys, inverse = np.unique(rows * shape[1] + cols, return_inverse=True)
+        summed = np.bincount(inverse.reshape(-1), weights=weights, minlength=len(keys))
+        keep = summed != 0
+        keys = keys[keep]
+        return Sparse(keys // shape[1], keys % shape[1], summed[keep], (int(shape[0]), int(shape[1])))
+
+    @staticmethod
+    def identity(n: int) -> "Sparse":
+        i = np.arange(n, dtype=np.int64)
+        return Sparse(i, i, np.ones(n), (n, n))
+
+    @staticmethod
+    def stack(blocks: list["Sparse"]) -> "Sparse":
+        """Rows of `blocks` one after the other (all with the same number of columns)."""
+        shift = np.cumsum([0] + [b.shape[0] for b in blocks])
+        return Sparse(
+            np.concatenate([b.rows + s for b, s in zip(blocks, shift)]),
+            np.concatenate([b.cols for b in blocks]),
+            np.concatenate([b.weights for b in blocks]),
+            (int(shift[-1]), blocks[0].shape[1]),
+        )
+
+    def take_rows(self, rows: np.ndarray) -> "Sparse":
+        """The sub-matrix made of `rows` (in that order)."""
+        indptr = self.indptr()
+        counts = indptr[rows + 1] - indptr[rows]
+        new_row = np.repeat(np.arange(len(rows)), counts)
+        src = np.repeat(indptr[rows], counts) + _ranks(counts)
+        return Sparse(new_row, self.cols[src], self.weights[src], (len(rows), self.shape[1]))
+
+    def indptr(self) -> np.ndarray:
+        return np.concatenate([[0], np.cumsum(np.bincount(self.rows, minlength=self.shape[0]))])
+
+    def __matmul__(self, other: "Sparse") -> "Sparse":
+        """Sparse product on the host: every entry of `self` scales a row of `other`."""
+        assert self.shape[1] == other.shape[0]
+        indptr = other.indptr()
+        counts = indptr[self.cols + 1] - indptr[self.cols]
+        src = np.repeat(indptr[self.cols], counts) + _ranks(counts)
+        rows = np.repeat(self.rows, counts)
+        weights = np.repeat(self.weights, counts) * other.weights[src]
+        return Sparse.build(rows, other.cols[src], weights, (self.shape[0], other.shape[1]))
+
+    def dense(self) -> np.ndarray:
+        out = np.zeros(self.shape)
+        np.add.at(out, (self.rows, self.cols), self.weights)
+        return out
+
+
+def _ranks(counts: np.ndarray) -> np.ndarray:
+    """`concatenate([arange(c) for c in counts])` without a Python loop."""
+    total = int(counts.sum())
+    starts = np.repeat(np.cumsum(counts) - counts, counts)
+    return np.arange(total) - starts
+
+
+@ft.partial(jax.jit, static_argnums=4)
+def _apply(rows, cols, weights, data, num_rows):
+    # One compiled computation (also when called eagerly): gather, scale, segment-sum.
+    num_cols, channels = data.shape[-2:]
+    batch = data.shape[:-2]
+    # Fold the batch axes into the channels: one gather of (nnz, batch * C).
+    flat = jnp.moveaxis(data.reshape(-1, num_cols, channels), 0, 1).reshape(num_cols, -1)
+    out = jax.ops.segment_sum(
+        weights.astype(data.dtype)[:, None] * flat[cols],
+        rows,
+        num_segments=num_rows,
+        indices_are_sorted=True,
+    )
+    out = jnp.moveaxis(out.reshape(num_rows, -1, channels), 1, 0)
+    return out.reshape(*batch, num_rows, channels)
+
+
+class StencilTable(eqx.Module):
+    r"""A sparse linear map from base vertex data to new vertex data, applied in JAX.
+
+    Row $i$ of the table says that new vertex $i$ is $\sum_j w_{ij} P_j$, a weighted
+    sum of base vertices. This is OpenSubdiv's *stencil table*: topology is analyzed
+    once on the host, and every later evaluation, for any positions or per-vertex
+    features on the same mesh, is this one kernel. It is linear in the data, so it is
+    differentiable (its transpose is a scatter-add), and it accepts leading batch axes
+    or `jax.vmap`.
+
+    The table is stored in coordinate form sorted by row (`rows`, `cols`, `weights`)
+    and applied as a gather, multiply and sorted segment-sum. A padded
+    `(rows, max width)` gather is the alternative layout; `benchmarks/bench_surfaces.py`
+    measures both (see `docs/surfaces.md`).
+
+    Usually built for you by [`jaxsubdiv.surfaces.Refiner`][] (one per level, or
+    `Refiner.composite()`) or [`jaxsubdiv.surfaces.Limit`][];
+    `StencilTable(rows, cols, weights, num_rows, num_cols)` builds one from coordinate
+    lists.
+    """
+
+    rows: Int[Array, " nnz"]
+    cols: Int[Array, " nnz"]
+    weights: Float[Array, " nnz"]
+    num_rows: int = eqx.field(static=True)
+    num_cols: int = eqx.field(static=True)
+
+    def __init__(
+        self,
+        rows: ArrayLike,
+        cols: ArrayLike,
+        weights: ArrayLike,
+        num_rows: int,
+        num_cols: int,
+    ):
+        """**Arguments:**
+
+        - `rows`, `cols`: integer arrays of the same length: entry $k$ adds
+          `weights[k] * data[cols[k]]` to output row `rows[k]`. Sorted by row.
+        - `weights`: float array of the same length.
+        - `num_rows`, `num_cols`: the number of output and input vertices.
+        """
+        rows_np = np.asarray(rows)
+        if rows_np.ndim != 1 or np.shape(cols) != rows_np.shape or np.shape(weights) != rows_np.shape:
+            raise ValueError("`rows`, `cols` and `weights` must be 1-d arrays of one length.")
+        if not isinstance(rows, jax.core.Tracer) and len(rows_np) > 1 and np.any(np.diff(rows_np) < 0):
+            raise ValueError("`rows` must be sorted (non-decreasing).")
+        self.rows = jnp.asarray(rows, jnp.int32)
+        self.cols = jnp.asarray(cols, jnp.int32)
+        self.weights = as_float_array(weights, "weights")
+        self.num_rows = int(num_rows)
+        self.num_cols = int(num_cols)
+
+    @staticmethod
+    def from_sparse(sparse: Sparse) -> "StencilTable":
+        return StencilTable(sparse.rows, sparse.cols, sparse.weights, *sparse.shape)
+
+    def __call__(self, data: Shaped[ArrayLike, "*batch V C"]) -> Float[Array, "*batch N C"]:
+        """Apply the table to per-vertex `data`.
+
+        **Arguments:**
+
+        - `data`: `(..., num_cols, C)`: one row per base vertex, any number of channels
+          (positions, colors, features) and any leading batch axes.
+
+        **Returns:**
+
+        `(..., num_rows, C)`, in the floating dtype of `data`.
+        """
+        data = as_float_array(data, "vertices")
+        if data.ndim < 2 or data.shape[-2] != self.num_cols:
+            raise ValueError(
+                f"`vertices` must have shape (..., {self.num_cols}, channels) for this "
+                f"mesh, got {data.shape}."
+            )
+        return _apply(self.rows, self.cols, self.weights, data, self.num_rows)
+
+    def dense(self) -> Float[Array, "N V"]:
+        """The table as a dense `(num_rows, num_cols)` matrix (for small meshes)."""
+        out = jnp.zeros((self.num_rows, self.num_cols), self.weights.dtype)
+        return out.at[self.rows, self.cols].add(self.weights)

@@ -1,0 +1,546 @@
+"""Subdivision surfaces: counts, limits against B-splines and box splines, tags, AD."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import scipy.interpolate
+
+import jaxsubdiv as js
+import jaxsubdiv.surfaces as jss
+
+
+# ---------------------------------------------------------------------------- meshes
+
+
+def torus_quads(m, n, seed=0):
+    """A periodic m x n quad grid (torus topology, every vertex of valence 4)."""
+    i, j = np.meshgrid(np.arange(m), np.arange(n), indexing="ij")
+    idx = lambda a, b: (a % m) * n + (b % n)
+    faces = np.stack([idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)], -1)
+    rng = np.random.default_rng(seed)
+    return rng.normal(size=(m * n, 3)), faces.reshape(-1, 4)
+
+
+def torus_triangles(m, n, seed=0):
+    """The same grid with every quad split along its (1, 1) diagonal: valence 6."""
+    vertices, quads = torus_quads(m, n, seed)
+    a, b, c, d = quads.T
+    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    return vertices, faces
+
+
+def cube():
+    v = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    f = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+    return v, np.array(f)
+
+
+def icosahedron():
+    p = (1 + 5**0.5) / 2
+    v = np.array(
+        [[-1, p, 0], [1, p, 0], [-1, -p, 0], [1, -p, 0], [0, -1, p], [0, 1, p],
+         [0, -1, -p], [0, 1, -p], [p, 0, -1], [p, 0, 1], [-p, 0, -1], [-p, 0, 1]], float
+    )  # fmt: skip
+    f = np.array(
+        [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+         [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
+         [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]]
+    )  # fmt: skip
+    return v, f
+
+
+def prism():
+    """A closed pentagonal prism: two pentagons and five quads (mixed polygons)."""
+    t = 2 * np.pi * np.arange(5) / 5
+    v = np.concatenate([np.stack([np.cos(t), np.sin(t), -np.ones(5)], 1),
+                        np.stack([np.cos(t), np.sin(t), np.ones(5)], 1)])  # fmt: skip
+    faces = [[4, 3, 2, 1, 0], [5, 6, 7, 8, 9]]
+    faces += [[i, (i + 1) % 5, 5 + (i + 1) % 5, 5 + i] for i in range(5)]
+    return v, faces
+
+
+def grid(m, n, seed=0, triangles=False):
+    """An open planar (m + 1) x (n + 1) vertex grid in the xy plane with random z."""
+    i, j = np.meshgrid(np.arange(m + 1), np.arange(n + 1), indexing="ij")
+    rng = np.random.default_rng(seed)
+    v = np.stack([i.ravel(), j.ravel(), rng.normal(size=i.size)], 1).astype(float)
+    idx = lambda a, b: a * (n + 1) + b
+    a, b = np.meshgrid(np.arange(m), np.arange(n), indexing="ij")
+    quads = np.stack([idx(a, b), idx(a + 1, b), idx(a + 1, b + 1), idx(a, b + 1)], -1).reshape(-1, 4)
+    if not triangles:
+        return v, quads
+    p, q, r, s = quads.T
+    return v, np.concatenate([np.stack([p, q, r], 1), np.stack([p, r, s], 1)])
+
+
+def hexagon_fan(seed=0):
+    """Six triangles around a center: an open mesh whose boundary vertices each lie in
+    two triangles, so no corner rule applies."""
+    t = 2 * np.pi * np.arange(6) / 6
+    rng = np.random.default_rng(seed)
+    v = np.concatenate([[[0, 0, 0.5]], np.stack([np.cos(t), np.sin(t), np.zeros(6)], 1)])
+    v = v + 0.1 * rng.normal(size=v.shape)
+    return v, np.array([[0, 1 + i, 1 + (i + 1) % 6] for i in range(6)])
+
+
+def counts(mesh):
+    """Vertex, edge, face, corner (H), interior edge and boundary vertex counts,
+    computed with plain Python from the face lists."""
+    pairs = []
+    for row in mesh.faces:
+        row = row[row >= 0]
+        pairs += [tuple(sorted((row[i], row[(i + 1) % len(row)]))) for i in range(len(row))]
+    keys, per_edge = np.unique(np.array(pairs), axis=0, return_counts=True)
+    return dict(V=mesh.num_vertices, E=len(keys), F=len(mesh.faces), H=len(pairs),
+                E_int=int((per_edge == 2).sum()), B=len(np.unique(keys[per_edge == 1])))  # fmt: skip
+
+
+closed_meshes = [("cube", cube), ("icosahedron", icosahedron), ("prism", prism),
+                 ("torus", lambda: torus_quads(4, 5))]  # fmt: skip
+open_meshes = [("grid", lambda: grid(3, 2)), ("grid_tri", lambda: grid(3, 2, triangles=True)),
+               ("fan", hexagon_fan)]  # fmt: skip
+
+
+# ---------------------------------------------------------------------------- counts
+
+
+triangle_meshes = ("icosahedron", "grid_tri", "fan")
+count_cases = [
+    (name, make, scheme)
+    for name, make in closed_meshes + open_meshes
+    for scheme in [jss.Loop(), jss.CatmullClark(), jss.DooSabin()]
+    if name in triangle_meshes or not isinstance(scheme, jss.Loop)
+]
+
+
+@pytest.mark.parametrize("name, make, scheme", count_cases)
+def test_counts(name, make, scheme):
+    v, f = make()
+    mesh = jss.Mesh(v, f)
+    for _ in range(2):
+        c = counts(mesh)
+        refined = jss.refine_mesh(mesh, scheme, 1)
+        r = counts(refined)
+        nv_interior = c["V"] - c["B"]
+        if isinstance(scheme, jss.Loop):
+            want = dict(V=c["V"] + c["E"], E=2 * c["E"] + 3 * c["F"], F=4 * c["F"])
+        elif isinstance(scheme, jss.CatmullClark):
+            want = dict(V=c["V"] + c["E"] + c["F"], E=2 * c["E"] + c["H"], F=c["H"])
+        else:  # Doo-Sabin: a vertex per corner; F-, E- and V-faces
+            want = dict(V=c["H"], E=c["H"] + 2 * c["E_int"], F=c["F"] + c["E_int"] + nv_interior)
+        assert {k: r[k] for k in want} == want
+        if name in dict(closed_meshes):
+            assert r["V"] - r["E"] + r["F"] == c["V"] - c["E"] + c["F"]  # Euler characteristic
+        mesh = refined
+
+
+def test_catmull_clark_quads_after_one_level():
+    refined = jss.refine_mesh(jss.Mesh(*prism()), jss.CatmullClark(), 1)
+    assert refined.faces.shape[1] == 4 and np.all(refined.faces >= 0)
+
+
+# ------------------------------------------------ Catmull-Clark = bicubic B-spline
+
+
+def periodic_bspline_matrix(params, m):
+    """Design matrix of the periodic uniform cubic B-spline, built with scipy:
+    column j holds sum_k B(u - j - k m), B the cubic B-spline on knots -2..2."""
+    basis = scipy.interpolate.BSpline.basis_element(np.arange(-2.0, 3.0), extrapolate=False)
+    d = params[:, None] - np.arange(m)[None, :]
+    out = np.zeros((len(params), m))
+    for k in (-2, -1, 0, 1, 2):
+        out += np.nan_to_num(basis(d - k * m))
+    return out
+
+
+def bicubic(P, m, n, u, v):
+    """Points of the bicubic periodic B-spline of control net P (m*n, 3) at (u[k], v[k])."""
+    Bu, Bv = periodic_bspline_matrix(u, m), periodic_bspline_matrix(v, n)
+    grid = P.reshape(m, n, 3)
+    return np.einsum("ki,kj,ijc->kc", Bu, Bv, grid)
+
+
+def test_catmull_clark_torus_is_bicubic_bspline():
+    m, n = 7, 6
+    P, faces = torus_quads(m, n, seed=1)
+    mesh = jss.Mesh(P, faces)
+    i, j = np.divmod(np.arange(m * n), n)
+    limit = np.asarray(jss.limit_positions(mesh, jss.CatmullClark()))
+    np.testing.assert_allclose(limit, bicubic(P, m, n, i * 1.0, j * 1.0), atol=1e-12)
+
+    # Refined vertices: CC reproduces linear functions, so refining the (unwrapped)
+    # grid parameters gives the parameter of every refined vertex whose (non-negative)
+    # stencil does not reach the seam vertices, which the last channel flags.
+    seam = ((i == 0) | (i == m - 1) | (j == 0) | (j == n - 1)).astype(float)
+    for levels in (1, 2):
+        refiner = jss.Refiner(mesh, jss.CatmullClark(), levels)
+        uvs = np.asarray(refiner(np.stack([i, j, seam], 1).astype(float)))
+        uv, away = uvs[:, :2], uvs[:, 2] == 0
+        fine = refiner.mesh(P)
+        fine_limit = np.asarray(jss.limit_positions(fine, jss.CatmullClark()))
+        assert away.sum() > 4
+        want = bicubic(P, m, n, uv[away, 0], uv[away, 1])
+        np.testing.assert_allclose(fine_limit[away], want, atol=1e-12)
+
+    # Deep refinement: the control points converge to the surface at O(h^2).
+    errors = []
+    for levels in (2, 3, 4):
+        refined = np.asarray(jss.Refiner(mesh, jss.CatmullClark(), levels)(P))[: m * n]
+        errors.append(np.abs(refined - limit).max())
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    np.testing.assert_allclose(ratios, 4.0, rtol=0.05)
+
+
+def test_catmull_clark_torus_normals_match_bspline_derivatives():
+    m, n = 6, 7
+    P, faces = torus_quads(m, n, seed=2)
+    normals = np.asarray(jss.limit_normals(jss.Mesh(P, faces), jss.CatmullClark()))
+    i, j = np.divmod(np.arange(m * n), n)
+    h = 1e-5
+    du = (bicubic(P, m, n, i + h, j * 1.0) - bicubic(P, m, n, i - h, j * 1.0)) / (2 * h)
+    dv = (bicubic(P, m, n, i * 1.0, j + h) - bicubic(P, m, n, i * 1.0, j - h)) / (2 * h)
+    want = np.cross(du, dv)
+    want /= np.linalg.norm(want, axis=1, keepdims=True)
+    np.testing.assert_allclose(normals, want, atol=1e-7)
+
+
+# ------------------------------------------------------- Loop = quartic box spline
+
+
+def box_spline_222(N):
+    """The three-direction quartic box spline M_{222} sampled on the grid (a/N, b/N).
+
+    Built from its definition (de Boor, Hoellig and Riemenschneider, "Box splines",
+    1993): M_{Xi + xi}(x) = int_0^1 M_Xi(x - t xi) dt, starting from the indicator of
+    the unit square, with the trapezoid rule; directions (1,0), (1,0), (0,1), (0,1),
+    (1,1), (1,1). Accurate to O(1/N^2).
+    """
+    size = 4 * N + 1
+    M = np.zeros((size, size))
+    M[: N + 1, : N + 1] = 1.0
+    M[[0, N], :] *= 0.5  # half values on the edges of the square
+    M[:, [0, N]] *= 0.5
+    for d in [(1, 0), (0, 1), (1, 1), (1, 1)]:
+        out = 0.5 * M.copy()
+        for s in range(1, N + 1):
+            shifted = np.zeros_like(M)
+            shifted[s * d[0] :, s * d[1] :] = M[: size - s * d[0], : size - s * d[1]]
+            out += shifted * (0.5 if s == N else 1.0)
+        M = out / N
+    return M
+
+
+@pytest.fixture(scope="module")
+def box_spline():
+    N = 48
+    M = box_spline_222(N)
+
+    def value(x, y):  # centered: support around (0, 0)
+        a, b = np.rint((np.asarray(x) + 2) * N).astype(int), np.rint((np.asarray(y) + 2) * N).astype(int)
+        inside = (a >= 0) & (a < M.shape[0]) & (b >= 0) & (b < M.shape[1])
+        return np.where(inside, M[np.clip(a, 0, M.shape[0] - 1), np.clip(b, 0, M.shape[1] - 1)], 0.0)
+
+    return value
+
+
+def test_box_spline_reference(box_spline):
+    # Published lattice values of M_222 (the regular Loop limit mask): 1/2 and 1/12.
+    assert abs(box_spline(0, 0) - 1 / 2) < 1e-3
+    for x, y in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, -1)]:
+        assert abs(box_spline(x, y) - 1 / 12) < 1e-3
+    assert box_spline(1, -1) < 1e-3
+
+
+def periodic_box_row(box_spline, x, y, m, n):
+    """Weights of the m x n periodic control net in the box-spline surface at (x, y)."""
+    i, j = np.divmod(np.arange(m * n), n)
+    row = np.zeros(m * n)
+    for a in (-1, 0, 1):
+        for b in (-1, 0, 1):
+            row += box_spline(x - i - a * m, y - j - b * n)
+    return row
+
+
+def test_loop_regular_limit_is_box_spline(box_spline):
+    m, n = 8, 8
+    P, faces = torus_triangles(m, n)
+    mesh = jss.Mesh(P, faces)
+    limit = jss.Limit(mesh, jss.Loop())
+    dense = np.asarray(limit.position.dense())
+    # Exact published values at a vertex: 1/2 and 1/12 (Loop 1987; Stam 1998).
+    center = 3 * n + 4
+    assert dense[center, center] == pytest.approx(0.5, abs=1e-14)
+    np.testing.assert_allclose(dense[center], periodic_box_row(box_spline, 3, 4, m, n), atol=1e-3)
+    # Edge points after one level (half-lattice parameters) against the box spline.
+    refiner = jss.Refiner(mesh, jss.Loop(), 1)
+    fine_limit = jss.Limit(refiner.mesh(P), jss.Loop())
+    composite = np.asarray(fine_limit.position.dense()) @ np.asarray(refiner.composite().dense())
+    edges = mesh.edges()  # edge points follow in this order
+    for e in range(0, len(edges), 7):
+        a, b = edges[e]
+        (ia, ja), (ib, jb) = divmod(a, n), divmod(b, n)
+        # Unwrap the periodic neighbor to find the edge's parameter midpoint.
+        ib = ia + ((ib - ia + 1) % m) - 1
+        jb = ja + ((jb - ja + 1) % n) - 1
+        want = periodic_box_row(box_spline, (ia + ib) / 2, (ja + jb) / 2, m, n)
+        np.testing.assert_allclose(composite[m * n + e], want, atol=1e-3)
+
+
+# ------------------------------------------- limit positions vs deep refinement
+
+
+tagged_meshes = [
+    ("icosahedron_loop", icosahedron, jss.Loop(), {}),
+    ("cube_cc", cube, jss.CatmullClark(), {}),
+    ("prism_cc", prism, jss.CatmullClark(), {}),
+    ("grid_cc", lambda: grid(4, 3), jss.CatmullClark(), {}),
+    ("grid_loop", lambda: grid(4, 3, triangles=True), jss.Loop(), {}),
+    # A crease across a grid (its ends on the boundary become corners) and a corner.
+    ("crease_cc", lambda: grid(4, 4), jss.CatmullClark(),
+     dict(creases=[[i * 5 + 2, (i + 1) * 5 + 2] for i in range(4)], corners=[6])),
+    ("crease_loop", lambda: grid(4, 4, triangles=True), jss.Loop(),
+     dict(creases=[[i * 5 + 2, (i + 1) * 5 + 2] for i in range(4)], corners=[6])),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("name, make, scheme, tags", tagged_meshes)
+def test_limit_positions_agree_with_deep_refinement(name, make, scheme, tags):
+    v, f = make()
+    mesh = jss.Mesh(v, f, **tags)
+    limit = np.asarray(jss.limit_positions(mesh, scheme))
+    V = len(v)
+    # The limit stencil is a left eigenvector: refining first does not move it.
+    again = jss.limit_positions(jss.refine_mesh(mesh, scheme, 2), scheme)[:V]
+    np.testing.assert_allclose(again, limit, atol=1e-12)
+    # Vertex points converge to it: the distance shrinks by the subdominant
+    # eigenvalue (squared, at regular and crease vertices) per level, <= 1/4 here.
+    deep = np.asarray(jss.Refiner(mesh, scheme, 5)(v))[:V]
+    scale = np.abs(v).max()
+    np.testing.assert_allclose(deep, limit, atol=4e-4 * scale)
+
+
+def test_limit_normals_by_symmetry():
+    v, f = icosahedron()
+    normals = np.asarray(jss.limit_normals(jss.Mesh(v, f), jss.Loop()))  # valence 5
+    np.testing.assert_allclose(normals, v / np.linalg.norm(v, axis=1, keepdims=True), atol=1e-14)
+    v, f = cube()
+    normals = np.asarray(jss.limit_normals(jss.Mesh(v, f), jss.CatmullClark()))  # valence 3
+    np.testing.assert_allclose(normals, v / np.sqrt(3), atol=1e-14)
+
+
+@pytest.mark.parametrize("scheme", [jss.Loop(), jss.CatmullClark()], ids=str)
+def test_limit_normals_perpendicular_to_refined_surface(scheme):
+    """At the smooth vertices of a random closed mesh, the normal is perpendicular to
+    the chords from the vertex's limit point to its neighbors' limit points after
+    deep refinement (chord length h, angle error O(h))."""
+    v, f = icosahedron()
+    rng = np.random.default_rng(3)
+    v = v + 0.2 * rng.normal(size=v.shape)
+    mesh = jss.Mesh(v, f)
+    normals = np.asarray(jss.limit_normals(mesh, scheme))
+    fine = jss.refine_mesh(mesh, scheme, 6)
+    fine_limit = np.asarray(jss.limit_positions(fine, scheme))
+    edges = fine.edges()
+    for vertex in range(len(v)):
+        nbrs = np.concatenate([edges[edges[:, 0] == vertex, 1], edges[edges[:, 1] == vertex, 0]])
+        chords = fine_limit[nbrs] - fine_limit[vertex]
+        cosines = chords @ normals[vertex] / np.linalg.norm(chords, axis=1)
+        assert np.abs(cosines).max() < 0.03
+
+
+# ---------------------------------------------------------- boundaries and creases
+
+
+@pytest.mark.parametrize("scheme, triangles", [(jss.CatmullClark(), False), (jss.Loop(), True)])
+def test_boundary_follows_cubic_bspline_curve(scheme, triangles):
+    """The side y = 0 of an open grid refines as a clamped cubic B-spline curve (the
+    corners are kept), checked against the curve code in `jaxsubdiv.refine`."""
+    m, n = 5, 3
+    v, f = grid(m, n, seed=4, triangles=triangles)
+    # Tag the grid corners: in the triangulated grid two of them lie in two triangles.
+    corners = [0, n, m * (n + 1), m * (n + 1) + n]
+    refined = np.asarray(jss.Refiner(jss.Mesh(v, f, corners=corners), scheme, 3)(v))
+    side = refined[np.abs(refined[:, 1]) < 1e-12]
+    side = side[np.argsort(side[:, 0])]
+    control = v[v[:, 1] == 0][:, [0, 2]]
+    curve = np.asarray(js.refine(control, js.CubicBSpline(), 3, boundary="clamped"))
+    np.testing.assert_allclose(side[:, [0, 2]], curve, atol=1e-12)
+
+
+@pytest.mark.parametrize("scheme, triangles", [(jss.CatmullClark(), False), (jss.Loop(), True)])
+def test_tagged_crease_follows_cubic_bspline_curve(scheme, triangles):
+    m = 4
+    v, f = grid(m, m, seed=5, triangles=triangles)
+    v = v.copy()
+    row = v[:, 1] == 2
+    v[~row & (v[:, 1] > 0) & (v[:, 1] < m), 1] += 0.3  # move the other rows off y = 2
+    crease = np.flatnonzero(row)
+    mesh = jss.Mesh(v, f, creases=np.stack([crease[:-1], crease[1:]], 1))
+    refined = jss.refine_mesh(mesh, scheme, 2)
+    assert len(refined.creases) == 4 * (len(crease) - 1)
+    points = np.asarray(refined.vertices)
+    on = points[np.abs(points[:, 1] - 2) < 1e-12]
+    on = on[np.argsort(on[:, 0])]
+    curve = np.asarray(js.refine(v[row][:, [0, 2]], js.CubicBSpline(), 2, boundary="clamped"))
+    np.testing.assert_allclose(on[:, [0, 2]], curve, atol=1e-12)
+
+
+def test_tagged_corner_is_kept():
+    v, f = cube()
+    refined = jss.refine_mesh(jss.Mesh(v, f, corners=[0, 7]), jss.CatmullClark(), 3)
+    np.testing.assert_allclose(refined.vertices[jnp.array([0, 7])], v[[0, 7]], atol=0)
+    assert abs(float(refined.vertices[1, 0])) < 1  # others move
+
+
+# ------------------------------------------------------------ trimesh's Loop
+
+
+def test_loop_matches_trimesh():
+    trimesh = pytest.importorskip("trimesh")
+    for v, f in [icosahedron(), hexagon_fan(), torus_triangles(4, 5)]:
+        ours = np.asarray(jss.refine_mesh(jss.Mesh(v, f), jss.Loop(), 2).vertices)
+        theirs, _ = trimesh.remesh.subdivide_loop(v, f, iterations=2)
+        assert ours.shape == theirs.shape
+        np.testing.assert_allclose(np.sort(ours, axis=0), np.sort(theirs, axis=0), atol=1e-13)
+        # And as a point set, not just per coordinate.
+        d = np.linalg.norm(ours[:, None] - theirs[None], axis=-1).min(axis=1)
+        assert d.max() < 1e-13
+
+
+# --------------------------------------------------------- autodiff and batching
+
+
+def test_gradients_against_finite_differences():
+    v, f = prism()
+    mesh = jss.Mesh(v, f)
+    refiner = jss.Refiner(mesh, jss.CatmullClark(), 2)
+    limit = jss.Limit(mesh, jss.CatmullClark())
+    target = np.random.default_rng(0).normal(size=(refiner.num_vertices, 3))
+
+    def loss(x):
+        return jnp.sum(jnp.sin(refiner(x)) * target) + jnp.sum(limit.normals(x)[:, 2] ** 3)
+
+    x = jnp.asarray(v)
+    grad = np.asarray(jax.grad(loss)(x))
+    eps = 1e-6
+    fd = np.zeros_like(v)
+    for idx in np.ndindex(*v.shape):
+        e = np.zeros_like(v)
+        e[idx] = eps
+        fd[idx] = (loss(x + e) - loss(x - e)) / (2 * eps)
+    np.testing.assert_allclose(grad, fd, rtol=1e-6, atol=1e-7)
+
+
+def test_normals_gradient_finite_at_degenerate_configuration():
+    v, f = cube()
+    grad = jax.grad(lambda x: jnp.sum(jss.Limit(jss.Mesh(v, f), jss.CatmullClark()).normals(x)))(
+        jnp.zeros_like(v)
+    )
+    assert np.all(np.isfinite(grad))
+
+
+def test_vmap_and_batch_axes_equal_loop():
+    v, f = icosahedron()
+    refiner = jss.Refiner(jss.Mesh(v, f), jss.Loop(), 2)
+    batch = jnp.asarray(np.random.default_rng(1).normal(size=(64, len(v), 3)))
+    looped = np.stack([np.asarray(refiner(b)) for b in batch])
+    np.testing.assert_allclose(jax.vmap(refiner)(batch), looped, atol=1e-14)
+    np.testing.assert_allclose(refiner(batch.reshape(8, 8, len(v), 3)).reshape(looped.shape), looped, atol=1e-14)
+    limit = jss.Limit(jss.Mesh(v, f), jss.Loop())
+    looped = np.stack([np.asarray(limit.normals(b)) for b in batch[:8]])
+    np.testing.assert_allclose(jax.vmap(limit.normals)(batch[:8]), looped, atol=1e-14)
+
+
+def test_composite_table_equals_levels():
+    v, f = prism()
+    refiner = jss.Refiner(jss.Mesh(v, f), jss.CatmullClark(), 3)
+    x = np.random.default_rng(4).normal(size=(len(v), 4))
+    np.testing.assert_allclose(refiner.composite()(x), refiner(x), atol=1e-13)
+    one_at_a_time = jss.Mesh(x, f)
+    for _ in range(3):
+        one_at_a_time = jss.refine_mesh(one_at_a_time, jss.CatmullClark(), 1)
+    np.testing.assert_allclose(one_at_a_time.vertices, refiner(x), atol=1e-13)
+
+
+def test_per_vertex_features_any_channels():
+    v, f = cube()
+    features = np.random.default_rng(2).normal(size=(8, 5))
+    refiner = jss.Refiner(jss.Mesh(v, f), jss.CatmullClark(), 1)
+    # Linear: channel by channel equals all at once, and affine combinations (rows sum to 1).
+    whole = np.asarray(refiner(features))
+    for c in range(5):
+        np.testing.assert_allclose(whole[:, c], np.asarray(refiner(features[:, c : c + 1]))[:, 0])
+    np.testing.assert_allclose(np.asarray(refiner(np.ones((8, 1)))), 1.0, atol=1e-14)
+
+
+def test_jit_compiles_once_per_topology():
+    v, f = cube()
+    traces = []
+
+    @eqx.filter_jit
+    def refine(mesh):
+        traces.append(1)
+        return jss.refine_mesh(mesh, jss.CatmullClark(), 2).vertices
+
+    a = refine(jss.Mesh(v, f))
+    b = refine(jss.Mesh(2 * v, f))
+    np.testing.assert_allclose(b, 2 * a, atol=1e-14)
+    assert len(traces) == 1
+    refine(jss.Mesh(v, f[:, ::-1]))
+    assert len(traces) == 2
+
+
+def test_float32():
+    v, f = icosahedron()
+    with jax.enable_x64(False):
+        out = jss.Refiner(jss.Mesh(v, f), jss.Loop(), 2)(v.astype(np.float32))
+        normals = jss.limit_normals(jss.Mesh(v.astype(np.float32), f), jss.Loop())
+    assert out.dtype == jnp.float32 and normals.dtype == jnp.float32
+    ref = jss.Refiner(jss.Mesh(v, f), jss.Loop(), 2)(v)
+    np.testing.assert_allclose(out, ref, rtol=1e-6, atol=1e-6)
+
+
+def test_refiner_levels_zero_is_identity():
+    v, f = prism()
+    refined = jss.refine_mesh(jss.Mesh(v, f), jss.DooSabin(), 0)
+    np.testing.assert_allclose(refined.vertices, v)
+    np.testing.assert_array_equal(refined.faces, jss.Mesh(v, f).faces)
+
+
+# --------------------------------------------------------------------- errors
+
+
+def test_errors():
+    v, f = cube()
+    with pytest.raises(ValueError, match="not manifold: edge"):
+        # A third face on the edge (0, 1).
+        third = jss.Mesh(np.concatenate([v, [[0, 0, 5]]]), [*f.tolist(), [1, 0, 8]])
+        jss.Refiner(third, jss.CatmullClark())
+    with pytest.raises(ValueError, match="consistently oriented"):
+        jss.Refiner(jss.Mesh(v, [*f[:5].tolist(), f[5][::-1].tolist()]), jss.CatmullClark())
+    bowtie = [[0, 1, 2], [0, 3, 4]]
+    with pytest.raises(ValueError, match="not manifold at vertex 0"):
+        jss.Refiner(jss.Mesh(np.zeros((5, 3)), bowtie), jss.Loop())
+    with pytest.raises(ValueError, match="triangle mesh"):
+        jss.Refiner(jss.Mesh(v, f), jss.Loop())
+    with pytest.raises(ValueError, match="no crease or corner rules"):
+        jss.Refiner(jss.Mesh(v, f, corners=[0]), jss.DooSabin())
+    with pytest.raises(ValueError, match="no limit stencils"):
+        jss.limit_positions(jss.Mesh(v, f), jss.DooSabin())
+    with pytest.raises(ValueError, match="not an edge"):
+        jss.Refiner(jss.Mesh(v, f, creases=[[0, 7]]), jss.CatmullClark())
+    with pytest.raises(ValueError, match="uses the same vertex twice"):
+        jss.Refiner(jss.Mesh(v, [[0, 1, 1, 2]]), jss.CatmullClark())
+    with pytest.raises(ValueError, match="only 8 vertices"):
+        jss.Mesh(v, [[0, 1, 9]])
+    with pytest.raises(ValueError, match="levels"):
+        jss.Refiner(jss.Mesh(v, f), jss.CatmullClark(), -1)
+    with pytest.raises(TypeError, match="scheme"):
+        jss.Refiner(jss.Mesh(v, f), js.CubicBSpline(), 1)
+    refiner = jss.Refiner(jss.Mesh(v, f), jss.CatmullClark(), 1)
+    with pytest.raises(ValueError, match=r"\(\.\.\., 8, channels\)"):
+        refiner(np.zeros((9, 3)))
+    with pytest.raises(ValueError, match=r"\(\.\.\., 8, channels\)"):
+        refiner.tables[0](np.zeros((9, 3)))

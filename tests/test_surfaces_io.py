@@ -1,0 +1,108 @@
+"""Mesh files: OBJ, OFF and ASCII PLY reading, writing and errors."""
+
+import numpy as np
+import pytest
+
+import jaxsubdiv.surfaces as jss
+
+
+def prism():
+    t = 2 * np.pi * np.arange(5) / 5
+    v = np.concatenate([np.stack([np.cos(t), np.sin(t), -np.ones(5)], 1),
+                        np.stack([np.cos(t), np.sin(t), np.ones(5)], 1)])  # fmt: skip
+    faces = [[4, 3, 2, 1, 0], [5, 6, 7, 8, 9]]
+    faces += [[i, (i + 1) % 5, 5 + (i + 1) % 5, 5 + i] for i in range(5)]
+    return v + np.pi / 100, faces
+
+
+@pytest.mark.parametrize("fmt", ["obj", "off", "ply"])
+def test_round_trip(tmp_path, fmt):
+    v, f = prism()
+    mesh = jss.Mesh(v, f)
+    path = tmp_path / f"prism.{fmt}"
+    jss.write_mesh(path, mesh)
+    back = jss.read_mesh(path)
+    np.testing.assert_array_equal(np.asarray(back.vertices), v)  # 17 digits: exact
+    np.testing.assert_array_equal(back.faces, mesh.faces)
+
+
+@pytest.mark.parametrize("fmt", ["obj", "off", "ply"])
+def test_written_files_read_by_trimesh(tmp_path, fmt):
+    trimesh = pytest.importorskip("trimesh")
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.5]])
+    f = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    path = tmp_path / f"tet.{fmt}"
+    jss.write_mesh(path, jss.Mesh(v, f))
+    loaded = trimesh.load(path, process=False)
+    np.testing.assert_allclose(loaded.vertices, v)
+    np.testing.assert_array_equal(loaded.faces, f)
+
+
+def test_read_obj_index_forms(tmp_path):
+    text = """# a quad and a triangle
+mtllib x.mtl
+o thing
+v 0 0 0
+v 1 0 0
+v 1 1 0   # trailing comment
+v 0 1 0
+vt 0 0
+vn 0 0 1
+f 1/1/1 2/1/1 3//1 4
+v 2 0 0
+f -4 -1 -3
+"""
+    path = tmp_path / "m.obj"
+    path.write_text(text)
+    mesh = jss.read_mesh(path)
+    np.testing.assert_allclose(mesh.vertices, [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0]])
+    np.testing.assert_array_equal(mesh.faces, [[0, 1, 2, 3], [1, 4, 2, -1]])
+
+
+def test_read_off_and_ply_with_extras(tmp_path):
+    off = tmp_path / "m.off"
+    off.write_text("OFF\n# comment\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3 255 0 0\n")
+    np.testing.assert_array_equal(jss.read_mesh(off).faces, [[0, 1, 2, 3]])
+    ply = tmp_path / "m.ply"
+    ply.write_text(
+        "ply\nformat ascii 1.0\ncomment hi\nelement vertex 3\nproperty float y\n"
+        "property float x\nproperty float z\nproperty uchar red\nelement face 1\n"
+        "property list uchar int vertex_index\nend_header\n1 0 0 9\n0 1 0 9\n1 1 0 9\n3 0 1 2\n"
+    )
+    mesh = jss.read_mesh(ply)
+    np.testing.assert_allclose(mesh.vertices, [[0, 1, 0], [1, 0, 0], [1, 1, 0]])
+
+
+@pytest.mark.parametrize(
+    "name, text, match",
+    [
+        ("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", r"a\.obj, line 4: face refers to vertex 4"),
+        ("b.obj", "v 0 0\n", r"b\.obj, line 1: a vertex needs 3 coordinates"),
+        ("c.obj", "v 0 0 0\nv 1 0 x\n", r"c\.obj, line 2: expected numbers"),
+        ("d.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", r"d\.obj, line 4: OBJ vertex indices start at 1"),
+        ("e.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n", r"e\.off, line 6: face index out of range"),
+        ("f.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n", r"f\.off: the file ends early"),
+        ("g.off", "COFF\n", r"g\.off, line 1: an OFF file starts with 'OFF'"),
+        ("h.ply", "ply\nformat binary_little_endian 1.0\nend_header\n", r"h\.ply, line 2: only ASCII PLY"),
+        ("i.stl", "", r"Cannot tell the mesh format"),
+    ],
+)
+def test_malformed_files(tmp_path, name, text, match):
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(ValueError, match=match):
+        jss.read_mesh(path)
+
+
+def test_non_manifold_file(tmp_path):
+    path = tmp_path / "fin.obj"
+    # Three triangles on the edge (1, 2).
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nf 1 2 3\nf 2 4 3\nf 3 2 5\n")
+    with pytest.raises(ValueError, match=r"fin\.obj: The mesh is not manifold: edge \(1, 2\)"):
+        jss.read_mesh(path)
+    assert jss.read_mesh(path, check=False).num_faces == 3
+
+
+def test_write_needs_3d(tmp_path):
+    with pytest.raises(ValueError, match="3-d positions"):
+        jss.write_mesh(tmp_path / "x.obj", jss.Mesh(np.zeros((3, 2)), [[0, 1, 2]]))
