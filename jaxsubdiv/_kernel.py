@@ -21,6 +21,7 @@ import math
 from typing import NamedTuple
 
 import jax.numpy as jnp
+from jax import lax
 from jaxtyping import Array, Float
 
 
@@ -36,13 +37,15 @@ def composite_mask(mask: Float[Array, " L"], start: int, levels: int):
     if levels == 0:
         return jnp.ones((1,), mask.dtype), 0
     composite = mask
-    for level in range(1, levels):
-        step = 2**level
-        # a^{(l+1)}(z) = a^{(l)}(z) * a(z^{2^l}): a sum of `length` shifted copies.
-        total = composite.shape[-1] + (length - 1) * step
+    for _ in range(1, levels):
+        # a^{(l+1)}(z) = a(z) a^{(l)}(z^2): upsample by two, then a `length`-tap filter
+        # whose taps are static slices of one padded array (XLA fuses them into one loop;
+        # measured 20x faster than shifted pads at 16 levels).
+        up = jnp.stack([composite, jnp.zeros_like(composite)], axis=-1).reshape(-1)[:-1]
+        padded = jnp.pad(up, (length - 1, length - 1))
+        total = up.shape[-1] + length - 1
         composite = sum(
-            mask[q] * jnp.pad(composite, (q * step, total - composite.shape[-1] - q * step))
-            for q in range(length)
+            mask[q] * padded[length - 1 - q : length - 1 - q + total] for q in range(length)
         )
     return composite, start * (2**levels - 1)
 
@@ -62,6 +65,23 @@ def polyphase(mask: Float[Array, " L"], start: int, levels: int) -> Polyphase:
 
 def _filter(windows: list[Array], table: Array) -> Array:
     """sum_m table[r, m] * windows[m][..., i, :] -> (..., i, r, :)."""
+    *batch, blocks, d = windows[0].shape
+    rows, width = table.shape
+    if 2 <= d <= 3 and math.prod(batch) * blocks >= 8 * width * d:
+        # XLA:CPU vectorises the broadcast form below poorly when the minor axis is a
+        # 2-D or 3-D point. Then one GEMM (blocks, width d) @ (width d, rows d) writes the
+        # output in its final layout, with kernel[m d + c, r d + c'] = W[r, m] [c = c'].
+        # Used only when the kernel is small next to the output (<= 1/8 of it); the
+        # kernel's zeros cost d-fold multiply-adds, which pays only for d <= 3 (measured:
+        # 1.1-4.6x faster at 1M points for d = 2; slower for d = 1, 8, 32).
+        stacked = jnp.concatenate(windows, axis=-1).reshape(-1, width * d)
+        eye = jnp.eye(d, dtype=table.dtype)
+        kernel = table.T[:, None, :, None] * eye[None, :, None, :]
+        out = jnp.matmul(
+            stacked, kernel.reshape(width * d, rows * d), precision=lax.Precision.HIGHEST
+        )
+        return out.reshape(*batch, blocks, rows, d)
+    # Few blocks: broadcast multiply-adds, which XLA fuses into one loop.
     out = None
     for m, window in enumerate(windows):
         term = window[..., :, None, :] * table[:, m][:, None]
@@ -73,7 +93,12 @@ def apply_periodic(points: Float[Array, "*batch n d"], phase: Polyphase) -> Arra
     """All $2^k n$ outputs of a closed curve, in order."""
     n, d = points.shape[-2:]
     width = phase.table.shape[1]
-    windows = [jnp.roll(points, -(phase.jmin + m), axis=-2) for m in range(width)]
+    # windows[m][..., i, :] = P[(i + jmin + m) mod n]: static slices of the polygon
+    # extended periodically once (cheaper for XLA than one roll per column).
+    start = phase.jmin % n
+    copies = -(-(start + n + width - 1) // n)
+    extended = jnp.concatenate([points] * copies, axis=-2) if copies > 1 else points
+    windows = [extended[..., start + m : start + m + n, :] for m in range(width)]
     out = _filter(windows, phase.table)
     return out.reshape(*points.shape[:-2], n * phase.rows, d)
 

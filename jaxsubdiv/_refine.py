@@ -134,6 +134,12 @@ def _count(n, scheme, levels, boundary, creases) -> int:
 def _refine_static(points, scheme, levels, boundary, creases):
     """The jitted body; `levels`, `boundary` and `creases` are static."""
     mask = scheme.mask().astype(points.dtype)
+    if mask.ndim != 1:  # checked while tracing: no cost per call
+        raise ValueError(
+            f"{type(scheme).__name__} holds a batch of parameter values (mask shape "
+            f"{mask.shape}); refine takes one scheme. To refine with many parameter "
+            "values, `jax.vmap` over the scheme."
+        )
     start = scheme.mask_start
     n = points.shape[-2]
     if levels == 0:
@@ -222,12 +228,6 @@ def refine(
     n, d = points.shape[-2:]
     if d < 1:
         raise ValueError("`points` must have at least one coordinate (d >= 1).")
-    if scheme.mask().ndim != 1:
-        raise ValueError(
-            f"{type(scheme).__name__} holds a batch of parameter values (mask shape "
-            f"{scheme.mask().shape}); refine takes one scheme. To refine with many "
-            "parameter values, `jax.vmap` over the scheme."
-        )
     boundary = _check_boundary(boundary, scheme)
     creases = _check_creases(creases, n, boundary)
     needed = _min_points(scheme, boundary)

@@ -36,6 +36,10 @@ class _NotAffine(js.AbstractCurveScheme):
     def mask_start(self):
         return -2
 
+    @property
+    def mask_length(self):
+        return 4
+
 
 # --- The closed forms and published values -------------------------------------
 

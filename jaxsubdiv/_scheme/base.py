@@ -45,9 +45,9 @@ class AbstractCurveScheme(eqx.Module):
         """The index $k$ of the first mask coefficient (a static Python int)."""
 
     @property
+    @abc.abstractmethod
     def mask_length(self) -> int:
-        """Number of mask coefficients (static)."""
-        return int(self.mask().shape[-1])
+        """Number of mask coefficients (a static Python int; no array is built)."""
 
     @property
     def center(self) -> float:

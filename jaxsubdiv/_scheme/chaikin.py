@@ -30,5 +30,9 @@ class Chaikin(AbstractCurveScheme):
         return jnp.array([1.0, 3.0, 3.0, 1.0]) / 4
 
     @property
+    def mask_length(self) -> int:
+        return 4
+
+    @property
     def mask_start(self) -> int:
         return -2

@@ -45,5 +45,9 @@ class CornerCutting(AbstractCurveScheme):
         return jnp.stack([self.r, self.s, 1 - self.r, 1 - self.s])
 
     @property
+    def mask_length(self) -> int:
+        return 4
+
+    @property
     def mask_start(self) -> int:
         return -2

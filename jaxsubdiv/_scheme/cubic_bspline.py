@@ -31,5 +31,9 @@ class CubicBSpline(AbstractCurveScheme):
         return jnp.array([1.0, 4.0, 6.0, 4.0, 1.0]) / 8
 
     @property
+    def mask_length(self) -> int:
+        return 5
+
+    @property
     def mask_start(self) -> int:
         return -2

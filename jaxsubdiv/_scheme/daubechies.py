@@ -29,5 +29,9 @@ class Daubechies(AbstractCurveScheme):
         return jnp.array([1 + _SQRT3, 3 + _SQRT3, 3 - _SQRT3, 1 - _SQRT3]) / 4
 
     @property
+    def mask_length(self) -> int:
+        return 4
+
+    @property
     def mask_start(self) -> int:
         return -2

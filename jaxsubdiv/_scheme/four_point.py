@@ -48,5 +48,9 @@ class FourPoint(AbstractCurveScheme):
         return jnp.stack([-w, zero, 0.5 + w, one, 0.5 + w, zero, -w])
 
     @property
+    def mask_length(self) -> int:
+        return 7
+
+    @property
     def mask_start(self) -> int:
         return -3

@@ -43,5 +43,9 @@ class LaneRiesenfeld(AbstractCurveScheme):
         return jnp.array(binomial_row(self.degree + 1)) / 2**self.degree
 
     @property
+    def mask_length(self) -> int:
+        return self.degree + 2
+
+    @property
     def mask_start(self) -> int:
         return -self.degree

@@ -91,5 +91,9 @@ class MaskScheme(AbstractCurveScheme):
         return self.coefficients
 
     @property
+    def mask_length(self) -> int:
+        return int(self.coefficients.shape[-1])
+
+    @property
     def mask_start(self) -> int:
         return self.start

@@ -49,6 +49,10 @@ class SplitTweak(AbstractCurveScheme):
         )
 
     @property
+    def mask_length(self) -> int:
+        return 7
+
+    @property
     def mask_start(self) -> int:
         return -3
 
