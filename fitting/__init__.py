@@ -1,5 +1,13 @@
 """fitting: invert subdivision with optimistix.
 
-Fit control polygons, and scheme parameters such as `r`, `s` and `w`, to sampled
-outlines. Not implemented yet: see the project's issue on fitting.
+Fit control polygons, and scheme parameters such as `r`, `s`, `w` and `t`, to sampled
+outlines; one at a time or in batches; differentiably.
 """
+
+from ._fit import (
+    STATUSES as STATUSES,
+    FitResult as FitResult,
+    fit as fit,
+    fit_batch as fit_batch,
+)
+from ._init import order_samples as order_samples

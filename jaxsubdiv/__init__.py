@@ -2,21 +2,6 @@
 
 import importlib.metadata
 
-from ._refine import (
-    DEFAULT_MEMORY_BUDGET as DEFAULT_MEMORY_BUDGET,
-    refine as refine,
-    refined_count as refined_count,
-    subdivision_matrix as subdivision_matrix,
-)
-from ._scheme.base import AbstractCurveScheme as AbstractCurveScheme
-from ._scheme.chaikin import Chaikin as Chaikin
-from ._scheme.corner_cutting import CornerCutting as CornerCutting
-from ._scheme.cubic_bspline import CubicBSpline as CubicBSpline
-from ._scheme.daubechies import Daubechies as Daubechies
-from ._scheme.four_point import FourPoint as FourPoint
-from ._scheme.lane_riesenfeld import LaneRiesenfeld as LaneRiesenfeld
-from ._scheme.mask_scheme import MaskScheme as MaskScheme
-from ._scheme.split_tweak import Jarek as Jarek, SplitTweak as SplitTweak
 from . import shapes as shapes, surfaces as surfaces
 from ._analysis.analyze import Analysis as Analysis, analyze as analyze
 from ._analysis.limit import (
@@ -35,6 +20,21 @@ from ._analysis.local import (
     tangent_stencil as tangent_stencil,
 )
 from ._analysis.smoothness import Smoothness as Smoothness, smoothness as smoothness
+from ._refine import (
+    DEFAULT_MEMORY_BUDGET as DEFAULT_MEMORY_BUDGET,
+    refine as refine,
+    refined_count as refined_count,
+    subdivision_matrix as subdivision_matrix,
+)
+from ._scheme.base import AbstractCurveScheme as AbstractCurveScheme
+from ._scheme.chaikin import Chaikin as Chaikin
+from ._scheme.corner_cutting import CornerCutting as CornerCutting
+from ._scheme.cubic_bspline import CubicBSpline as CubicBSpline
+from ._scheme.daubechies import Daubechies as Daubechies
+from ._scheme.four_point import FourPoint as FourPoint
+from ._scheme.lane_riesenfeld import LaneRiesenfeld as LaneRiesenfeld
+from ._scheme.mask_scheme import MaskScheme as MaskScheme
+from ._scheme.split_tweak import Jarek as Jarek, SplitTweak as SplitTweak
 
 
 try:

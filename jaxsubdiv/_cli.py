@@ -10,7 +10,6 @@ def _demo(args) -> int:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
     import numpy as np
 
     import jaxsubdiv as js

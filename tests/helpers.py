@@ -104,3 +104,69 @@ def refine_by_definition(points, mask, start, levels, boundary):
                 best = run
         P = np.array([valid[K] for K in best])
     return P
+
+
+# --------------------------------------------------------------------------------------
+# Outlines and distances for the fitting tests (numpy only; independent of jaxsubdiv).
+
+
+def resample_closed(polygon, m, offset=0.5):
+    """`m` points evenly spaced by arc length along a closed polygon."""
+    P = np.vstack([polygon, polygon[:1]])
+    s = np.r_[0, np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
+    t = (np.arange(m) + offset) / m * s[-1]
+    return np.stack([np.interp(t, s, P[:, k]) for k in range(P.shape[1])], -1)
+
+
+def glyph_outline(char, m=400):
+    """Outer contour of a DejaVu Sans glyph (matplotlib's bundled font), resampled."""
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import TextPath
+
+    path = TextPath((0, 0), char, size=1.0, prop=FontProperties(family="DejaVu Sans"))
+    polygons = path.to_polygons(closed_only=True)
+    outer = max(polygons, key=lambda p: np.ptp(p, axis=0).prod())
+    if np.allclose(outer[0], outer[-1]):
+        outer = outer[:-1]
+    return resample_closed(outer, m)
+
+
+def superellipse(m=400, a=2.0, b=1.0, p=4.0):
+    theta = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
+    r = 1 / (np.abs(np.cos(theta)) ** p + np.abs(np.sin(theta)) ** p) ** (1 / p)
+    return resample_closed(np.stack([a * r * np.cos(theta), b * r * np.sin(theta)], -1), m)
+
+
+def polyline_distances(points, polyline, closed=True):
+    """Brute-force distance from each point to a polyline (every segment checked)."""
+    points, polyline = np.asarray(points, float), np.asarray(polyline, float)
+    a = polyline
+    b = np.roll(polyline, -1, axis=0) if closed else polyline[1:]
+    a = a if closed else a[:-1]
+    ab = b - a
+    out = np.empty(len(points))
+    for start in range(0, len(points), 256):
+        p = points[start : start + 256, None, :]
+        u = np.clip(((p - a) * ab).sum(-1) / np.maximum((ab**2).sum(-1), 1e-300), 0, 1)
+        out[start : start + 256] = np.sqrt((((p - a) - u[..., None] * ab) ** 2).sum(-1).min(1))
+    return out
+
+
+def two_sided_rms(curve, samples):
+    """max(RMS samples -> curve, RMS curve -> polyline through the samples)."""
+    t2c = polyline_distances(samples, curve)
+    c2t = polyline_distances(curve, samples)
+    return max(np.sqrt(np.mean(t2c**2)), np.sqrt(np.mean(c2t**2)))
+
+
+def splprep_curve(samples, n, dense=4096):
+    """scipy's periodic cubic least-squares spline with `n` coefficients on uniform knots,
+    chord-length parameters, evaluated at `dense` points."""
+    import scipy.interpolate as si
+
+    P = np.vstack([samples, samples[:1]])
+    u = np.r_[0, np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
+    u /= u[-1]
+    knots = np.arange(-3, n + 4) / n  # the full periodic knot vector
+    tck, _ = si.splprep(list(P.T), u=u, k=3, task=-1, t=knots, per=1)
+    return np.stack(si.splev(np.arange(dense) / dense, tck), -1)

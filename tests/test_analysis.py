@@ -12,10 +12,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import all_schemes, bspline_schemes
 from scipy.interpolate import BSpline
 
 import jaxsubdiv as js
-from helpers import all_schemes, bspline_schemes
 
 
 def _polygon(n=9, seed=0):

@@ -1,6 +1,13 @@
 import numpy as np
 
-from ._base import AbstractSurfaceScheme, Level, LimitStencils, refined_tags, ring_positions, vertex_rule
+from ._base import (
+    AbstractSurfaceScheme,
+    Level,
+    LimitStencils,
+    refined_tags,
+    ring_positions,
+    vertex_rule,
+)
 from ._stencil import Sparse
 from ._topology import SMOOTH, Topology, build_topology
 

@@ -184,7 +184,6 @@ def build_topology(
             f"{int(k % V)}) appears in two faces. Reverse the vertex order of one of them."
         )
     edges = np.stack([ukeys // V, ukeys % V], axis=1)
-    E = len(edges)
     order = np.argsort(edge, kind="stable")
     first = np.concatenate([[0], np.cumsum(ecounts)])[:-1]
     edge_half = order[first]

@@ -1,0 +1,572 @@
+import math
+import warnings
+from typing import Literal
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import lineax as lx
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array, ArrayLike, Float, Int
+
+import jaxsubdiv as js
+from jaxsubdiv._misc import as_float_array, is_traced, static_int
+from jaxsubdiv._refine import _min_points
+
+from ._curve import curve_polyline, distances, foot_residual, project
+from ._init import initial_control, order_samples, second_differences
+from ._params import fitted_names, from_unconstrained, to_unconstrained
+
+
+# Our status codes are optimistix's result names, in this order (0 = success).
+STATUSES = (
+    "successful",
+    "nonlinear_max_steps_reached",
+    "nonlinear_divergence",
+    "nonfinite",
+    "nonfinite_input",
+    "singular",
+    "breakdown",
+    "stagnation",
+    "max_steps_reached",
+    "conlim",
+)
+_MESSAGES = {
+    name: (optx.RESULTS[getattr(optx.RESULTS, name)] or "converged")
+    for name in STATUSES
+    if hasattr(optx.RESULTS, name)
+}
+
+SOLVERS = ("levenberg-marquardt", "gauss-newton", "dogleg", "bfgs")
+
+
+class FitResult(eqx.Module):
+    """The result of [`fitting.fit`][] or [`fitting.fit_batch`][].
+
+    All array fields carry a leading batch axis for `fit_batch`. Distances are in the
+    target's units and *two-sided*: target to curve (each sample's distance to the limit
+    curve) and curve to target (each curve point's distance to the polyline through the
+    ordered samples), so a curve that wanders away from the data between samples is
+    caught. `rms` and `max_error` are the larger of the two directions.
+
+    **Fields:**
+
+    - `control_points`: the fitted control polygon, `(n, d)`.
+    - `scheme`: the scheme with its fitted parameters (e.g. `result.scheme.w`).
+    - `curve`: the limit curve at the dyadic parameters of `levels` levels, `(N, d)`.
+    - `rms`, `max_error`: two-sided RMS and maximum distance.
+    - `rms_target_to_curve`, `max_target_to_curve`, `rms_curve_to_target`,
+      `max_curve_to_target`: each direction.
+    - `num_steps`: solver steps taken (including rejected trust-region steps).
+    - `status`: 0 on success, else the index in `fitting.STATUSES` of the optimistix
+      result. `converged` and `message` are derived from it.
+    """
+
+    control_points: Float[Array, "*batch n d"]
+    scheme: js.AbstractCurveScheme
+    curve: Float[Array, "*batch N d"]
+    rms: Float[Array, "*batch"]
+    max_error: Float[Array, "*batch"]
+    rms_target_to_curve: Float[Array, "*batch"]
+    max_target_to_curve: Float[Array, "*batch"]
+    rms_curve_to_target: Float[Array, "*batch"]
+    max_curve_to_target: Float[Array, "*batch"]
+    num_steps: Int[Array, "*batch"]
+    status: Int[Array, "*batch"]
+    boundary: str = eqx.field(static=True)
+    levels: int = eqx.field(static=True)
+
+    @property
+    def converged(self) -> Array:
+        """True where the solver met its tolerance."""
+        return self.status == 0
+
+    @property
+    def message(self):
+        """Why the solver stopped: a string, or a list of strings for a batch."""
+        codes = np.asarray(self.status)
+        text = lambda c: f"{STATUSES[c]}: {_MESSAGES[STATUSES[c]]}" if c else "converged"
+        return text(int(codes)) if codes.ndim == 0 else [text(int(c)) for c in codes.ravel()]
+
+
+def _make_solver(solver, rtol: float, atol: float):
+    # Normal equations + Cholesky: 14-200x faster than the default QR on these small,
+    # well-conditioned control-point problems, with the same steps (benchmarks/fit).
+    normal = lx.Normal(lx.Cholesky())
+    if solver is None or solver == "levenberg-marquardt":
+        return optx.LevenbergMarquardt(rtol, atol, linear_solver=normal)
+    if solver == "gauss-newton":
+        return optx.GaussNewton(rtol, atol, linear_solver=normal)
+    if solver == "dogleg":
+        return optx.Dogleg(rtol, atol, linear_solver=normal)
+    if solver == "bfgs":
+        return optx.BFGS(rtol, atol)
+    if isinstance(solver, (optx.AbstractLeastSquaresSolver, optx.AbstractMinimiser)):
+        return solver
+    raise ValueError(
+        f"`solver` must be one of {SOLVERS}, an optimistix least-squares solver or "
+        f"minimiser, or None; got {solver!r}."
+    )
+
+
+def default_levels(n: int, m: int) -> int:
+    """Enough levels for a polyline of at least max(1024, 4m) points."""
+    return max(2, math.ceil(math.log2(max(1024, 4 * m) / n)))
+
+
+#: Weight of the curve-to-target distances relative to the target-to-curve ones. They
+#: are measured to the chords between samples, which lie inside convex arcs by about
+#: h^2 kappa / 8, so a full weight would pull the curve inwards; 0.1 keeps that bias
+#: small (measured: the same two-sided error on glyphs as weight 1).
+BACK_WEIGHT = 0.1
+
+
+def _status(result) -> Array:
+    code = jnp.zeros((), jnp.int32)
+    for k, name in enumerate(STATUSES):
+        if hasattr(optx.RESULTS, name):
+            code = jnp.where(result == getattr(optx.RESULTS, name), k, code)
+    return code
+
+
+def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, names,
+             solver, max_steps, smooth_rows):
+    """Fit one target (pure JAX; `fit` and `fit_batch` jit and vmap this)."""
+    closed = boundary == "closed"
+    dtype = target.dtype
+    # Samples with zero weight (including the padding of ragged batches) are ignored.
+    valid = weights > 0
+    share = (valid / jnp.sum(valid)).astype(dtype)
+    center = share @ target
+    scale = jnp.sqrt(share @ jnp.sum((target - center) ** 2, -1))
+    scale = jnp.where(scale > 0, scale, 1.0)
+    T = (target - center) / scale  # work in units of the outline's size
+    # Sum (not mean) of squared distances: with optimistix's initial LM damping of 1
+    # this scale took about half the steps of the mean (measured; see benchmarks/fit).
+    m_valid = jnp.sum(valid).astype(dtype)
+    w = weights * (m_valid / jnp.sum(weights))
+    if init is None:
+        P0 = initial_control(T, w, scheme, n, levels, boundary, smoothing)
+    else:
+        P0 = (init - center) / scale
+    y0 = {"control": jax.lax.stop_gradient(P0), "params": to_unconstrained(scheme, names)}
+    N = js.refined_count(n, scheme, levels, boundary)
+    coarse = max(1, min(8, N // 64))
+    index = jnp.arange(target.shape[0])
+    first, last = jnp.min(jnp.where(valid, index, index.size)), jnp.max(jnp.where(valid, index, -1))
+
+    stride = max(1, N // (8 * n))
+    count = len(range(0, N, stride))
+    coarse_target = max(1, min(8, target.shape[0] // 64))
+    curve_index = jnp.arange(count)
+
+    def pin_curve_ends(segment, fraction):
+        segment = jnp.where(curve_index == 0, first, jnp.where(curve_index == count - 1, last - 1, segment))
+        fraction = jnp.where(curve_index == 0, 0.0, jnp.where(curve_index == count - 1, 1.0, fraction))
+        return segment, fraction
+
+    def pin_ends(segment, fraction, size):
+        # An open curve must start and end where the data do: match the first and last
+        # samples to its end points (otherwise its ends may run past the data freely).
+        segment = jnp.where(index <= first, 0, jnp.where(index >= last, size - 2, segment))
+        fraction = jnp.where(index <= first, 0.0, jnp.where(index >= last, 1.0, fraction))
+        return segment, fraction
+    D = second_differences(n, closed, dtype)
+
+    def residuals(y, args):
+        T, w, base, smoothing = args
+        current = from_unconstrained(base, names, y["params"])
+        X = curve_polyline(y["control"], current, levels, boundary)
+        segment, fraction = project(T, X, closed, coarse)
+        if not closed:
+            segment, fraction = pin_ends(segment, fraction, X.shape[0])
+        e = foot_residual(T, X, segment, fraction, closed) * jnp.sqrt(w)[:, None]
+        # Curve to target: every `stride`-th curve point to the polyline through the
+        # samples, so that no part of the curve can wander away from the data.
+        C = X[::stride]
+        segment, fraction = project(C, T, closed, coarse_target)
+        if not closed:
+            segment, fraction = pin_curve_ends(segment, fraction)
+        # Weighted so that both directions count alike (each sums to m mean squares).
+        back = foot_residual(C, T, segment, fraction, closed) * jnp.sqrt(BACK_WEIGHT * m_valid / C.shape[0])
+        if not smooth_rows:
+            return e, back
+        return e, back, jnp.sqrt(smoothing / n) * (D @ y["control"])
+
+    sol = optx.least_squares(
+        residuals, solver, y0, args=(T, w, scheme, smoothing), max_steps=max_steps,
+        throw=False,
+    )
+    fitted = from_unconstrained(scheme, names, sol.value["params"])
+    P = sol.value["control"]
+    X = curve_polyline(P, fitted, levels, boundary)
+    t2c = jnp.where(valid, distances(T, X, closed) * scale, 0.0)
+    c2t = distances(X, T, closed) * scale
+    rms_t2c, rms_c2t = jnp.sqrt(share @ t2c**2), jnp.sqrt(jnp.mean(c2t**2))
+    return FitResult(
+        control_points=center + scale * P,
+        scheme=fitted,
+        curve=center + scale * X,
+        rms=jnp.maximum(rms_t2c, rms_c2t),
+        max_error=jnp.maximum(jnp.max(t2c), jnp.max(c2t)),
+        rms_target_to_curve=rms_t2c,
+        max_target_to_curve=jnp.max(t2c),
+        rms_curve_to_target=rms_c2t,
+        max_curve_to_target=jnp.max(c2t),
+        num_steps=sol.stats["num_steps"],
+        status=_status(sol.result),
+        boundary=boundary,
+        levels=levels,
+    )
+
+
+_fit_jit = eqx.filter_jit(_fit_one)
+
+
+def _looks_open(target: np.ndarray) -> tuple[bool, float, float]:
+    gaps = np.linalg.norm(np.diff(target, axis=0), axis=-1)
+    closing = float(np.linalg.norm(target[0] - target[-1]))
+    typical = float(max(4 * np.median(gaps), 1.5 * gaps.max()))
+    return closing > typical, closing, float(np.median(gaps))
+
+
+def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights, ordered,
+            smoothing, caller="fit"):
+    """Validate the arguments of `fit` (and each item of `fit_batch`); return the
+    checked target, weights, static settings and names."""
+    target = as_float_array(target, "target")
+    if not isinstance(scheme, js.AbstractCurveScheme):
+        raise TypeError(
+            f"`{caller}(scheme=...)` must be a jaxsubdiv curve scheme such as "
+            f"`jaxsubdiv.CubicBSpline()`; got {type(scheme).__name__}."
+        )
+    if target.ndim != 2 or target.shape[-1] < 2:
+        raise ValueError(
+            f"`{caller}(target=...)` must have shape (m, d) with d >= 2 (samples of an "
+            f"outline); got shape {target.shape}."
+        )
+    if boundary not in ("closed", "open", "clamped"):
+        raise ValueError(
+            f"`{caller}(boundary=...)` must be 'closed', 'open' or 'clamped'; got {boundary!r}."
+        )
+    n = static_int(n_control, "n_control", minimum=1)
+    need = _min_points(scheme, boundary)
+    if n < need:
+        raise ValueError(
+            f"`n_control={n}` is too small: {type(scheme).__name__} with "
+            f"boundary={boundary!r} needs at least {need} control points."
+        )
+    names = fitted_names(scheme, fit_params)
+    m, d = target.shape
+    unknowns = n * d + len(names)
+    if m < unknowns:
+        raise ValueError(
+            f"`{caller}` got {m} samples for {unknowns} unknowns ({n} control points x "
+            f"{d} coordinates" + (f" + {len(names)} scheme parameters" if names else "")
+            + "); give at least as many samples as unknowns, or fewer control points."
+        )
+    levels = default_levels(n, m) if levels is None else static_int(levels, "levels", minimum=1)
+    if weights is None:
+        weights = jnp.ones((m,), target.dtype)
+    else:
+        weights = as_float_array(weights, "weights").astype(target.dtype)
+        if weights.shape != (m,):
+            raise ValueError(
+                f"`{caller}(weights=...)` must have shape ({m},), one per sample; got "
+                f"{weights.shape}."
+            )
+    if not is_traced(target):
+        values = np.asarray(target)
+        if not np.all(np.isfinite(values)):
+            bad = np.unique(np.nonzero(~np.isfinite(values))[0])[:5].tolist()
+            raise ValueError(
+                f"`{caller}(target=...)` has non-finite values (NaN or inf) at samples "
+                f"{bad}; remove or repair them."
+            )
+        if np.ptp(values, axis=0).max() == 0:
+            raise ValueError(f"`{caller}(target=...)`: all samples are the same point.")
+        if not ordered:
+            order = order_samples(values, closed=boundary == "closed")
+            target = target[order]
+            weights = weights[order]
+            values = values[order]
+        if boundary == "closed":
+            is_open, closing, typical = _looks_open(values)
+            if is_open:
+                raise ValueError(
+                    f"`{caller}(target=...)` looks like an open curve: its first and last "
+                    f"samples are {closing:.3g} apart, the samples {typical:.3g} (median). "
+                    "Use boundary='open' (or 'clamped'), or pass ordered=False if the "
+                    "samples are not in order along the outline."
+                )
+    elif not ordered:
+        raise ValueError(
+            f"`{caller}(ordered=False)` orders the samples on the host, which needs "
+            "concrete values; when differentiating or jitting through the fit, order them "
+            "first with `fitting.order_samples` and pass ordered=True."
+        )
+    if not is_traced(weights) and not np.all(np.asarray(weights) >= 0):
+        raise ValueError(f"`{caller}(weights=...)` must be non-negative.")
+    smooth_rows = is_traced(smoothing) or float(smoothing) != 0.0
+    if not is_traced(smoothing) and float(smoothing) < 0:
+        raise ValueError(f"`{caller}(smoothing=...)` must be >= 0, got {smoothing}.")
+    return target, weights, n, levels, names, smooth_rows
+
+
+def report(result: FitResult, on_failure: str, caller: str = "fit") -> None:
+    """Raise or warn, on the host, for items that did not converge."""
+    if on_failure == "ignore" or is_traced(result.status):
+        return
+    failed = np.nonzero(np.atleast_1d(~np.asarray(result.converged)))[0]
+    if len(failed) == 0:
+        return
+    messages = result.message if isinstance(result.message, list) else [result.message]
+    first = messages[failed[0]].split(". ")[0]
+    text = (
+        f"{caller}: {len(failed)} of {len(messages)} fits did not converge "
+        f"(first: item {failed[0]}, {first}). The last iterates are returned; see "
+        "`result.converged` and `result.message`."
+        if len(messages) > 1
+        else f"{caller} did not converge ({first}) after {int(result.num_steps)} steps; the "
+        "last iterate is returned."
+    )
+    if on_failure == "raise":
+        raise RuntimeError(text)
+    warnings.warn(text, RuntimeWarning, stacklevel=3)
+
+
+def fit(
+    target: Float[ArrayLike, "m d"],
+    scheme: js.AbstractCurveScheme,
+    n_control: int,
+    *,
+    levels: int | None = None,
+    boundary: Literal["closed", "open", "clamped"] = "closed",
+    fit_params: bool | str | tuple[str, ...] = False,
+    init: Float[ArrayLike, "n d"] | None = None,
+    solver=None,
+    max_steps: int = 200,
+    tol: float | None = None,
+    weights: Float[ArrayLike, " m"] | None = None,
+    smoothing: float = 0.0,
+    ordered: bool = True,
+    on_failure: Literal["raise", "warn", "ignore"] = "warn",
+) -> FitResult:
+    """Fit a control polygon (and optionally the scheme's parameters) to an outline.
+
+    Minimises the squared distances from the samples to the subdivision scheme's limit
+    curve over the control points (and `r`, `s`, `w` or `t`). The correspondence between
+    samples and curve is optimised, not frozen: every residual is the distance from a
+    sample to its foot point on the current curve (tangent-distance minimisation), so
+    Gauss-Newton-type solvers converge fast instead of alternating slowly.
+
+    How: the samples are centered and scaled to unit size; control points start from a
+    linear least-squares fit at chord-length positions (lineax Cholesky); then an
+    optimistix solver (Levenberg-Marquardt by default, with normal equations and
+    Cholesky) minimises the distances to the limit curve, evaluated exactly at the
+    dyadic parameters of `levels` levels (see [`jaxsubdiv.limit_points`][]) and joined
+    by chords. Scheme parameters stay in their valid open ranges through a smooth
+    reparameterisation (see `fitting._params`).
+
+    Works under `jax.jit` (`eqx.filter_jit`) and with `jax.grad`/`jacrev`/`jacfwd` with
+    respect to the target, the weights, the smoothing and the scheme's parameters, by
+    implicit differentiation of the optimum (`optimistix.ImplicitAdjoint`).
+
+    **Arguments:**
+
+    - `target`: samples of the outline, shape `(m, d)`, `d >= 2`, in order along it
+      (else pass `ordered=False`). Unevenly spaced and noisy samples are fine.
+    - `scheme`: a curve scheme; its parameters are the fixed values, or the starting
+      values when they are fitted.
+    - `n_control`: number of control points (static).
+    - `levels`: levels of the polyline the distances are measured to (static; default:
+      enough for at least max(1024, 4m) curve points).
+    - `boundary`: `"closed"`, `"open"` or `"clamped"`, as in [`jaxsubdiv.refine`][].
+    - `fit_params`: `False`, `True` (all of the scheme's parameters) or names such as
+      `("w",)`. Fittable: `CornerCutting` r, s; `FourPoint` w (kept in
+      (0, 0.19), where the scheme is C1); `SplitTweak` t.
+    - `init`: starting control points `(n, d)` instead of the linear fit.
+    - `solver`: `"levenberg-marquardt"` (default), `"gauss-newton"`, `"dogleg"`,
+      `"bfgs"`, or any optimistix least-squares solver or minimiser.
+    - `max_steps`: solver step limit.
+    - `tol`: relative and absolute tolerance in units of the outline's size (default
+      1e-7 in float64, 1e-5 in float32).
+    - `weights`: non-negative per-sample weights `(m,)`.
+    - `smoothing`: weight of a second-difference penalty on the control points, relative
+      to the mean squared distance (in units of the outline's size).
+    - `ordered`: False to order unordered samples first ([`fitting.order_samples`][]).
+    - `on_failure`: what to do if the solver does not converge: `"raise"` a
+      `RuntimeError`, `"warn"` (default) or `"ignore"`. The last iterate is always
+      returned, with `converged` False and the reason in `message`.
+
+    **Returns:** a [`fitting.FitResult`][].
+    """
+    if on_failure not in ("raise", "warn", "ignore"):
+        raise ValueError(f"`on_failure` must be 'raise', 'warn' or 'ignore'; got {on_failure!r}.")
+    target, weights, n, levels, names, smooth_rows = prepare(
+        target, scheme, n_control, levels=levels, boundary=boundary, fit_params=fit_params,
+        weights=weights, ordered=ordered, smoothing=smoothing,
+    )
+    max_steps = static_int(max_steps, "max_steps", minimum=1)
+    if tol is None:
+        tol = 1e-7 if target.dtype == jnp.float64 else 1e-5
+    if init is not None:
+        init = as_float_array(init, "init").astype(target.dtype)
+        if init.shape != (n, target.shape[1]):
+            raise ValueError(
+                f"`fit(init=...)` must have shape ({n}, {target.shape[1]}); got {init.shape}."
+            )
+    dtype = target.dtype
+    if dtype == jnp.float32 and jax.config.jax_enable_x64:
+        # optimistix's damping is float64 when x64 is on, which lineax rejects next to
+        # float32 iterates; solve in float64 and return float32.
+        target, weights = target.astype(jnp.float64), weights.astype(jnp.float64)
+        init = None if init is None else init.astype(jnp.float64)
+    result = _fit_jit(
+        target, weights, scheme, init, jnp.asarray(smoothing, target.dtype), n=n,
+        levels=levels, boundary=boundary, names=names, solver=_make_solver(solver, tol, tol),
+        max_steps=max_steps, smooth_rows=smooth_rows,
+    )
+    if result.control_points.dtype != dtype:
+        cast = lambda x: x.astype(dtype) if eqx.is_inexact_array(x) else x
+        result = jax.tree.map(cast, result)
+    report(result, on_failure)
+    return result
+
+
+def _pad_ragged(targets, weights):
+    """Stack targets of different lengths, padding each with zero-weight copies of its
+    last sample (so chord lengths and the closing chord are unchanged)."""
+    m = max(t.shape[0] for t in targets)
+    stacked, stacked_weights = [], []
+    for t, w in zip(targets, weights):
+        extra = m - t.shape[0]
+        stacked.append(jnp.concatenate([t, jnp.repeat(t[-1:], extra, axis=0)]))
+        stacked_weights.append(jnp.concatenate([w, jnp.zeros((extra,), w.dtype)]))
+    return jnp.stack(stacked), jnp.stack(stacked_weights)
+
+
+def _batched(targets, weights, scheme, smoothing, **static):
+    solve = lambda t, w: _fit_one(t, w, scheme, None, smoothing, **static)
+    return jax.vmap(solve)(targets, weights)
+
+
+# Module level, so that repeated calls with the same shapes and settings reuse the
+# compiled program.
+_batched_jit = eqx.filter_jit(_batched)
+
+
+def _run_batch(targets, weights, scheme, smoothing, static, devices):
+    if len(devices) == 1:
+        targets, weights = jax.device_put((targets, weights), devices[0])
+        return _batched_jit(targets, weights, scheme, smoothing, **static)
+    # Split the batch axis over the devices; XLA partitions the vmapped solve (SPMD).
+    size = targets.shape[0]
+    extra = -size % len(devices)  # the batch must divide evenly over the devices
+    if extra:
+        targets = jnp.concatenate([targets, jnp.repeat(targets[:1], extra, axis=0)])
+        weights = jnp.concatenate([weights, jnp.repeat(weights[:1], extra, axis=0)])
+    mesh = jax.sharding.Mesh(np.array(devices), ("batch",))
+    sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("batch"))
+    targets, weights = jax.device_put((targets, weights), sharding)
+    result = _batched_jit(targets, weights, scheme, smoothing, **static)
+    return jax.tree.map(lambda x: x[:size], result) if extra else result
+
+
+def fit_batch(
+    targets,
+    scheme: js.AbstractCurveScheme,
+    n_control: int,
+    *,
+    levels: int | None = None,
+    boundary: Literal["closed", "open", "clamped"] = "closed",
+    fit_params: bool | str | tuple[str, ...] = False,
+    solver=None,
+    max_steps: int = 100,
+    tol: float | None = None,
+    weights=None,
+    smoothing: float = 0.0,
+    ordered: bool = True,
+    devices=None,
+    on_failure: Literal["raise", "warn", "ignore"] = "warn",
+) -> FitResult:
+    """Fit many outlines at once; the same settings as [`fitting.fit`][].
+
+    The items are solved together (`jax.vmap` of the single fit) and the batch is
+    split over `devices` (default: all of `jax.devices()`), one independent solver loop
+    per device, so several devices or hosts scale without code changes. One item that
+    fails (non-finite samples, no convergence) does not spoil the others: see
+    `result.converged[i]` and `result.message[i]`.
+
+    **Arguments:**
+
+    - `targets`: an array `(B, m, d)`, or a list of `B` arrays `(m_i, d)` of different
+      lengths (padded internally with zero-weight samples).
+    - `weights`: `None`, an array `(B, m)`, or a list of `(m_i,)` arrays.
+    - `max_steps`: solver step limit per item (default 100: a batched loop runs until
+      its slowest item stops, so keep it modest).
+    - `devices`: the devices to split the batch over.
+    - others: as for [`fitting.fit`][]. Items whose samples are not finite are not
+      fitted and get status `nonfinite_input`.
+
+    **Returns:** one [`fitting.FitResult`][] whose array fields have a leading batch axis
+    (for a ragged list, `curve` and the control points have the common shapes).
+    """
+    if on_failure not in ("raise", "warn", "ignore"):
+        raise ValueError(f"`on_failure` must be 'raise', 'warn' or 'ignore'; got {on_failure!r}.")
+    if isinstance(targets, (list, tuple)):
+        items = [as_float_array(t, "targets[i]") for t in targets]
+    else:
+        array = as_float_array(targets, "targets")
+        if array.ndim != 3:
+            raise ValueError(
+                f"`fit_batch(targets=...)` must be an array of shape (B, m, d) or a list of "
+                f"(m_i, d) arrays; got shape {array.shape}."
+            )
+        items = list(array)
+    if not items:
+        raise ValueError("`fit_batch(targets=...)` is empty.")
+    if weights is None:
+        weights = [None] * len(items)
+    elif len(weights) != len(items):
+        raise ValueError("`fit_batch(weights=...)` needs one weight array per target.")
+    prepared, bad = [], []
+    for i, (t, w) in enumerate(zip(items, weights)):
+        finite = is_traced(t) or bool(np.all(np.isfinite(np.asarray(t))))
+        if not finite:
+            bad.append(i)
+            t = jnp.nan_to_num(t)  # fitted as a placeholder, reported as failed
+        try:
+            t, w, n, levels_i, names, smooth_rows = prepare(
+                t, scheme, n_control, levels=levels, boundary=boundary,
+                fit_params=fit_params, weights=w, ordered=ordered, smoothing=smoothing,
+                caller=f"fit_batch(targets[{i}])",
+            )
+        except ValueError:
+            if not finite:  # the placeholder may look degenerate; the item is failed anyway
+                t, w = jnp.asarray(items[0]) if i else t, jnp.ones((t.shape[0],), t.dtype)
+                prepared.append((jnp.nan_to_num(t), w))
+                continue
+            raise
+        prepared.append((t, w))
+    m_max = max(t.shape[0] for t, _ in prepared)
+    if levels is None:
+        levels = default_levels(n, m_max)
+    stacked, stacked_weights = _pad_ragged([t for t, _ in prepared], [w for _, w in prepared])
+    max_steps = static_int(max_steps, "max_steps", minimum=1)
+    if tol is None:
+        tol = 1e-7 if stacked.dtype == jnp.float64 else 1e-5
+    static = dict(
+        n=n, levels=levels, boundary=boundary, names=names,
+        solver=_make_solver(solver, tol, tol), max_steps=max_steps, smooth_rows=smooth_rows,
+    )
+    result = _run_batch(
+        stacked, stacked_weights, scheme, jnp.asarray(smoothing, stacked.dtype), static,
+        jax.devices() if devices is None else list(devices),
+    )
+    if bad:
+        code = STATUSES.index("nonfinite_input")
+        result = eqx.tree_at(lambda r: r.status, result, result.status.at[jnp.array(bad)].set(code))
+    report(result, on_failure, caller="fit_batch")
+    return result

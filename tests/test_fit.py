@@ -1,0 +1,371 @@
+"""`fitting.fit` and `fitting.fit_batch` against independent references."""
+
+import os
+import subprocess
+import sys
+import textwrap
+import warnings
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from helpers import (
+    glyph_outline,
+    polyline_distances,
+    resample_closed,
+    splprep_curve,
+    superellipse,
+    two_sided_rms,
+)
+
+import fitting
+import jaxsubdiv as js
+
+
+def blob(m, seed=0, closed=True):
+    rng = np.random.default_rng(seed)
+    theta = np.sort(rng.uniform(0, 2 * np.pi if closed else 2.5, m))
+    radius = 1 + 0.2 * np.sin(3 * theta + rng.uniform(0, 6)) + 0.1 * np.cos(5 * theta)
+    return np.stack([radius * np.cos(theta), radius * np.sin(theta)], -1)
+
+
+def exact_curve(control, scheme, levels=11):
+    """The limit curve at 2^levels points per control point (independent of the fit's
+    own polyline: far finer, and built with refine + limit_points directly)."""
+    return np.asarray(js.limit_points(js.refine(control, scheme, levels), scheme))
+
+
+# --------------------------------------------------------------------------------------
+# Recovery of control points and scheme parameters
+
+
+TRUE_CONTROL = np.array(
+    [[2.0, 0.0], [1.4, 1.1], [0.0, 1.3], [-1.2, 0.9], [-2.1, 0.1], [-1.3, -1.0],
+     [0.1, -0.7], [1.5, -1.2]]
+)
+
+recovery_cases = [
+    ("four_point", js.FourPoint(0.09), js.FourPoint(1 / 16), "w"),
+    ("split_tweak", js.SplitTweak(0.3), js.SplitTweak(0.5), "t"),
+    ("corner_cutting", js.CornerCutting(0.2, 0.7), js.CornerCutting(0.25, 0.75), ("r", "s")),
+]
+
+
+def _recover(truth, start, m=300, levels=9):
+    dense = exact_curve(TRUE_CONTROL, truth)
+    # Samples at arc-length positions that are not refined points (offset 0.37).
+    samples = resample_closed(dense, m, offset=0.37)
+    result = fitting.fit(
+        samples, start, 8, fit_params=True, levels=levels, tol=1e-12, max_steps=500,
+        on_failure="raise",
+    )
+    fitted = exact_curve(result.control_points, result.scheme, levels=8)
+    error = max(polyline_distances(fitted, dense).max(), polyline_distances(dense[::7], fitted).max())
+    return result, error / np.linalg.norm(np.ptp(dense, axis=0))
+
+
+@pytest.mark.parametrize(
+    "name,truth,start,params", recovery_cases, ids=[c[0] for c in recovery_cases]
+)
+def test_recovers_parameters_and_curve(name, truth, start, params):
+    result, relative_error = _recover(truth, start)
+    for p in (params,) if isinstance(params, str) else params:
+        assert abs(float(getattr(result.scheme, p)) - float(getattr(truth, p))) < 1e-3, p
+    # Measured 5e-6 to 7e-6 of the size (the chords between samples and between the
+    # fit's own curve points limit it; see the xfail below).
+    assert relative_error < 2e-5
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="issue 4 asks for the curve to 1e-6 of its size; the chord model of the curve "
+    "(and the chords between samples) limit the fit to ~5e-6 (needs a C1 curve model)",
+)
+def test_recovers_curve_to_one_millionth():
+    _, relative_error = _recover(js.FourPoint(0.09), js.FourPoint(1 / 16))
+    assert relative_error < 1e-6
+
+
+# --------------------------------------------------------------------------------------
+# Real outlines against scipy's splprep
+
+
+outlines = {
+    "S": lambda: glyph_outline("S"),
+    "a": lambda: glyph_outline("a"),
+    "superellipse": lambda: superellipse(),
+}
+
+
+@pytest.mark.parametrize("n", [16, 32, 64])
+@pytest.mark.parametrize("shape", sorted(outlines))
+def test_beats_splprep_on_real_outlines(shape, n):
+    samples = outlines[shape]()
+    result = fitting.fit(samples, js.CubicBSpline(), n, on_failure="ignore")
+    ours = two_sided_rms(exact_curve(result.control_points, js.CubicBSpline(), 7), samples)
+    scipy_rms = two_sided_rms(splprep_curve(samples, n), samples)
+    assert ours < scipy_rms, (ours, scipy_rms)
+    # The reported error is what an independent measurement finds.
+    np.testing.assert_allclose(float(result.rms), ours, rtol=0.05)
+
+
+# --------------------------------------------------------------------------------------
+# Open curves, ordering, dtypes
+
+
+@pytest.mark.parametrize("boundary", ["open", "clamped"])
+def test_open_curves(boundary):
+    samples = blob(200, seed=3, closed=False)
+    result = fitting.fit(samples, js.CubicBSpline(), 12, boundary=boundary)
+    assert bool(result.converged)
+    size = np.linalg.norm(np.ptp(samples, axis=0))
+    assert float(result.rms) < 1e-2 * size
+    t2c = polyline_distances(samples, np.asarray(result.curve), closed=False)
+    np.testing.assert_allclose(float(result.rms_target_to_curve), np.sqrt(np.mean(t2c**2)), rtol=1e-6)
+    if boundary == "clamped":
+        np.testing.assert_allclose(result.curve[0], result.control_points[0], atol=1e-12)
+
+
+def test_order_samples_recovers_the_order():
+    samples = superellipse(150)
+    shuffle = np.random.default_rng(0).permutation(150)
+    order = fitting.order_samples(samples[shuffle])
+    recovered = shuffle[order]
+    # A rotation of 0..149, in either direction.
+    steps = np.diff(np.r_[recovered, recovered[:1]]) % 150
+    assert np.all(steps == 1) or np.all(steps == 149)
+
+
+def test_unordered_samples_are_fitted():
+    samples = blob(150, seed=1)
+    shuffled = samples[np.random.default_rng(2).permutation(150)]
+    ordered = fitting.fit(samples, js.CubicBSpline(), 12)
+    unordered = fitting.fit(shuffled, js.CubicBSpline(), 12, ordered=False)
+    # Same data, another start (sample and direction): an equally good fit.
+    assert bool(unordered.converged)
+    assert float(unordered.rms) < 1.5 * float(ordered.rms)
+    assert polyline_distances(samples, np.asarray(unordered.curve)).max() < 0.05
+
+
+def test_float32():
+    samples = blob(200, seed=4).astype(np.float32)
+    result = fitting.fit(jnp.asarray(samples), js.CubicBSpline(), 12)
+    assert result.control_points.dtype == jnp.float32
+    assert bool(result.converged)
+    reference = fitting.fit(samples.astype(np.float64), js.CubicBSpline(), 12)
+    np.testing.assert_allclose(float(result.rms), float(reference.rms), rtol=1e-2)
+
+
+def test_weights_and_smoothing():
+    samples = blob(200, seed=5)
+    plain = fitting.fit(samples, js.CubicBSpline(), 16)
+    smooth = fitting.fit(samples, js.CubicBSpline(), 16, smoothing=1.0)
+    second = lambda P: np.sum(np.diff(np.vstack([P, P[:2]]), 2, axis=0) ** 2)
+    assert second(np.asarray(smooth.control_points)) < second(np.asarray(plain.control_points))
+    # Zero weight on every other sample: those samples no longer count in the error.
+    w = np.tile([1.0, 0.0], 100)
+    weighted = fitting.fit(samples, js.CubicBSpline(), 16, weights=w)
+    d = polyline_distances(samples[::2], np.asarray(weighted.curve))
+    np.testing.assert_allclose(float(weighted.rms_target_to_curve), np.sqrt(np.mean(d**2)), rtol=1e-6)
+
+
+# --------------------------------------------------------------------------------------
+# Non-convergence
+
+
+def test_non_convergence_is_reported_and_last_iterate_returned():
+    samples = superellipse(300)
+    kw = dict(max_steps=2)
+    with pytest.warns(RuntimeWarning, match="did not converge"):
+        result = fitting.fit(samples, js.CubicBSpline(), 16, **kw)
+    assert not bool(result.converged)
+    assert "nonlinear_max_steps_reached" in result.message
+    assert int(result.num_steps) == 2
+    assert np.all(np.isfinite(np.asarray(result.control_points)))
+    with pytest.raises(RuntimeError, match="did not converge"):
+        fitting.fit(samples, js.CubicBSpline(), 16, on_failure="raise", **kw)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fitting.fit(samples, js.CubicBSpline(), 16, on_failure="ignore", **kw)
+
+
+# --------------------------------------------------------------------------------------
+# Batches
+
+
+def test_batch_equals_loop_and_nan_item_fails_alone():
+    targets = np.stack([blob(120, seed=s) for s in range(4)])
+    targets[2, 7] = np.nan
+    with pytest.warns(RuntimeWarning, match="1 of 4"):
+        batch = fitting.fit_batch(targets, js.CubicBSpline(), 10, max_steps=400)
+    assert batch.control_points.shape == (4, 10, 2)
+    assert list(np.asarray(batch.converged)) == [True, True, False, True]
+    assert batch.message[2].startswith("nonfinite_input")
+    for i in (0, 1, 3):
+        single = fitting.fit(targets[i], js.CubicBSpline(), 10, max_steps=400)
+        np.testing.assert_allclose(batch.control_points[i], single.control_points, atol=1e-8)
+        np.testing.assert_allclose(batch.rms[i], single.rms, rtol=1e-6)
+
+
+def test_ragged_batch_equals_single_fits():
+    targets = [blob(90, seed=7), blob(130, seed=8)]
+    batch = fitting.fit_batch(targets, js.FourPoint(0.07), 10, levels=6, max_steps=400)
+    for i, t in enumerate(targets):
+        single = fitting.fit(t, js.FourPoint(0.07), 10, levels=6, max_steps=400)
+        np.testing.assert_allclose(batch.rms[i], single.rms, rtol=1e-6)
+        np.testing.assert_allclose(batch.control_points[i], single.control_points, atol=1e-7)
+
+
+def test_sharded_batch_equals_unsharded():
+    # Two host devices need XLA_FLAGS before JAX starts: run in a fresh interpreter.
+    code = textwrap.dedent(
+        """
+        import jax, numpy as np
+        jax.config.update("jax_enable_x64", True)
+        import fitting, jaxsubdiv as js
+        assert len(jax.devices()) == 2, jax.devices()
+        rng = np.random.default_rng(0)
+        th = np.sort(rng.uniform(0, 2 * np.pi, (3, 80)), axis=1)
+        r = 1 + 0.2 * np.sin(3 * th)
+        targets = np.stack([r * np.cos(th), r * np.sin(th)], -1)
+        a = fitting.fit_batch(targets, js.CubicBSpline(), 8)
+        b = fitting.fit_batch(targets, js.CubicBSpline(), 8, devices=jax.devices()[:1])
+        print(float(np.abs(np.asarray(a.control_points) - np.asarray(b.control_points)).max()))
+        """
+    )
+    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2")
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600
+    )
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert float(out.stdout.strip().splitlines()[-1]) < 1e-9
+
+
+# --------------------------------------------------------------------------------------
+# Gradients through the fit (implicit differentiation) against finite differences
+
+
+def _small_problem():
+    # A curve the model can represent, plus a little noise: the distance to the fitted
+    # curve is then small, so the chord model's kinks (which scale with it) are
+    # negligible and the optimum is a smooth function of the data.
+    rng = np.random.default_rng(9)
+    control = TRUE_CONTROL + 0.05 * rng.standard_normal(TRUE_CONTROL.shape)
+    samples = resample_closed(exact_curve(control, js.FourPoint(0.08), 9), 60, offset=0.37)
+    samples = samples + 1e-4 * rng.standard_normal(samples.shape)
+    direction = jnp.asarray(rng.standard_normal((8, 2)))
+    return jnp.asarray(samples), direction
+
+
+def assert_matches_finite_difference(derivative, f, x, direction):
+    """`derivative` (along `direction`) against central differences at steps 1e-3,
+    1e-4 and 1e-5: it must match one of them to 1e-3. The fit's curve is a fine
+    polyline, so the optimum is only piecewise smooth in the data: a foot point crossing
+    a vertex between x - h and x + h spoils that step's difference (seen at 1e-4 on one
+    probe, where 1e-3 and 1e-5 agree with the implicit derivative to 5 digits)."""
+    fds = [(float(f(x + h * direction)) - float(f(x - h * direction))) / (2 * h) for h in (1e-3, 1e-4, 1e-5)]
+    assert any(abs(derivative - fd) <= 1e-3 * abs(fd) + 1e-7 for fd in fds), (derivative, fds)
+
+
+def test_gradient_with_respect_to_target():
+    samples, direction = _small_problem()
+
+    def loss(target):
+        result = fitting.fit(target, js.FourPoint(0.08), 8, levels=8, tol=1e-12, max_steps=400)
+        return jnp.sum(result.control_points * direction)
+
+    grad = np.asarray(jax.grad(loss)(samples))
+    rng = np.random.default_rng(11)
+    for k in rng.choice(60, 3, replace=False):
+        e = np.zeros((60, 2))
+        e[k] = rng.standard_normal(2)
+        assert_matches_finite_difference(float(np.sum(grad * e)), loss, samples, e)
+
+
+def test_gradient_with_respect_to_scheme_parameters():
+    samples, direction = _small_problem()
+
+    def fitted_w(target):  # design study: sensitivity of the fitted tension to the data
+        return fitting.fit(target, js.FourPoint(0.08), 8, fit_params=True, levels=8,
+                           tol=1e-12, max_steps=400).scheme.w
+
+    curve_direction = jnp.asarray(np.random.default_rng(12).standard_normal((8 * 2**8, 2)))
+
+    def control_given_w(w):  # sensitivity of the fitted curve to a fixed tension
+        # (The curve, not the control points: where the data leave control points free
+        # to slide along the curve, their derivatives are large and ill-determined.)
+        result = fitting.fit(samples, js.FourPoint(w), 8, levels=8, tol=1e-12, max_steps=400)
+        return jnp.sum(result.curve * curve_direction)
+
+    for derivative in (jax.grad(control_given_w)(0.08), jax.jacfwd(control_given_w)(0.08)):
+        assert_matches_finite_difference(float(derivative), control_given_w, 0.08, 1.0)
+    grad = np.asarray(jax.jacrev(fitted_w)(samples))
+    e = np.zeros((60, 2))
+    e[:20, 1] = 1.0  # move part of the outline
+    assert_matches_finite_difference(float(np.sum(grad * e)), fitted_w, samples, e)
+
+
+def test_fit_under_filter_jit():
+    samples, _ = _small_problem()
+    jitted = eqx.filter_jit(lambda t: fitting.fit(t, js.CubicBSpline(), 8, levels=6))
+    a, b = jitted(samples), fitting.fit(samples, js.CubicBSpline(), 8, levels=6)
+    np.testing.assert_allclose(a.control_points, b.control_points, atol=1e-10)
+
+
+# --------------------------------------------------------------------------------------
+# Bad input
+
+
+@pytest.mark.parametrize(
+    "change, error, words",
+    [
+        (dict(target=np.zeros((10, 2)) + np.arange(10)[:, None]), ValueError, "samples for"),
+        (dict(target=np.full((100, 2), 3.0)), ValueError, "same point"),
+        (dict(target=np.zeros(100)), ValueError, "shape (m, d)"),
+        (dict(target=np.zeros((100, 1))), ValueError, "shape (m, d)"),
+        (dict(n_control=2), ValueError, "n_control=2"),
+        (dict(boundary="periodic"), ValueError, "boundary"),
+        (dict(fit_params=("w",)), ValueError, "no fittable parameter"),
+        (dict(scheme=js.MaskScheme([0.25, 0.75, 0.75, 0.25], -2), fit_params=True), ValueError, "MaskScheme"),
+        (dict(weights=np.ones(5)), ValueError, "weights"),
+        (dict(weights=-np.ones(100)), ValueError, "non-negative"),
+        (dict(on_failure="shout"), ValueError, "on_failure"),
+        (dict(solver="newton"), ValueError, "solver"),
+        (dict(scheme="cubic"), TypeError, "scheme"),
+        (dict(init=np.zeros((3, 2))), ValueError, "init"),
+    ],
+)
+def test_bad_input_is_a_clear_error(change, error, words):
+    args = dict(target=blob(100), scheme=js.CubicBSpline(), n_control=8)
+    args.update(change)
+    with pytest.raises(error) as info:
+        fitting.fit(args.pop("target"), args.pop("scheme"), args.pop("n_control"), **args)
+    assert words in str(info.value)
+
+
+def test_non_finite_target_is_a_clear_error():
+    for bad in (np.nan, np.inf):
+        target = blob(100)
+        target[17, 1] = bad
+        with pytest.raises(ValueError, match=r"non-finite .* samples \[17\]"):
+            fitting.fit(target, js.CubicBSpline(), 8)
+
+
+def test_open_target_with_closed_boundary_is_a_clear_error():
+    with pytest.raises(ValueError, match="looks like an open curve"):
+        fitting.fit(blob(100, closed=False), js.CubicBSpline(), 8)
+
+
+def test_repeated_samples_are_fine():
+    target = np.repeat(blob(100), 2, axis=0)
+    result = fitting.fit(target, js.CubicBSpline(), 8)
+    assert bool(result.converged) and np.isfinite(float(result.rms))
+
+
+def test_unordered_under_tracing_is_a_clear_error():
+    with pytest.raises(ValueError, match="order_samples"):
+        jax.grad(lambda t: fitting.fit(t, js.CubicBSpline(), 8, ordered=False).rms)(
+            jnp.asarray(blob(100))
+        )
