@@ -52,6 +52,16 @@ class AbstractSurfaceScheme(eqx.Module):
         )
 
 
+def edge_end_rule(topo, smooth_weight: float):
+    """Rows, columns and weights of an edge point's two end vertices, the edge points
+    numbered after the `topo.num_vertices` vertex points: sharp (and boundary) edges
+    take the midpoint, smooth ones `smooth_weight` on each end."""
+    V, E = topo.num_vertices, topo.num_edges
+    end = np.where(topo.sharp_edge, 1 / 2, smooth_weight)
+    rows = [V + np.arange(E), V + np.arange(E)]
+    return rows, [topo.edges[:, 0], topo.edges[:, 1]], [end, end]
+
+
 def vertex_rule(
     topo: Topology,
     smooth_center: np.ndarray,

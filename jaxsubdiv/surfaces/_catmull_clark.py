@@ -4,6 +4,7 @@ from ._base import (
     AbstractSurfaceScheme,
     Level,
     LimitStencils,
+    edge_end_rule,
     refined_tags,
     ring_positions,
     vertex_rule,
@@ -55,11 +56,10 @@ class CatmullClark(AbstractSurfaceScheme):
         rows.append(topo.origin[smooth])
         cols.append(V + topo.face[smooth])
         weights.append(1 / n[topo.origin[smooth]] ** 2)
-        a, b = topo.edges[:, 0], topo.edges[:, 1]
-        end = np.where(topo.sharp_edge, 1 / 2, 1 / 4)
-        rows += [V + np.arange(E), V + np.arange(E)]
-        cols += [a, b]
-        weights += [end, end]
+        edge_rows, edge_cols, edge_weights = edge_end_rule(topo, 1 / 4)
+        rows += edge_rows
+        cols += edge_cols
+        weights += edge_weights
         h = np.flatnonzero(~topo.sharp_edge[topo.edge])
         rows.append(V + topo.edge[h])
         cols.append(V + topo.face[h])

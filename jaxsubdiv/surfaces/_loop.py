@@ -4,6 +4,7 @@ from ._base import (
     AbstractSurfaceScheme,
     Level,
     LimitStencils,
+    edge_end_rule,
     refined_tags,
     ring_positions,
     vertex_rule,
@@ -58,11 +59,10 @@ class Loop(AbstractSurfaceScheme):
         beta = loop_beta(n)
         rows, cols, weights = vertex_rule(topo, 1 - n * beta, beta, (3 / 4, 1 / 8))
         # Edge points: sharp edges take the midpoint, smooth ones 3/8 and 1/8.
-        a, b = topo.edges[:, 0], topo.edges[:, 1]
-        end = np.where(topo.sharp_edge, 1 / 2, 3 / 8)
-        rows += [V + np.arange(E), V + np.arange(E)]
-        cols += [a, b]
-        weights += [end, end]
+        edge_rows, edge_cols, edge_weights = edge_end_rule(topo, 3 / 8)
+        rows += edge_rows
+        cols += edge_cols
+        weights += edge_weights
         h = np.flatnonzero(~topo.sharp_edge[topo.edge])
         rows.append(V + topo.edge[h])
         cols.append(topo.origin[topo.prev[h]])  # the vertex opposite the edge
