@@ -2,7 +2,7 @@
 
 import importlib.metadata
 
-from . import shapes as shapes, surfaces as surfaces
+from . import io as io, shapes as shapes, surfaces as surfaces
 from ._analysis.analyze import Analysis as Analysis, analyze as analyze
 from ._analysis.limit import (
     limit_curvature as limit_curvature,

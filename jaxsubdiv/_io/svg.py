@@ -1,0 +1,397 @@
+"""SVG: path data for every command, `<polygon>`, `<polyline>`, transforms; sampling by
+arc length on the exact curves; writing outlines and exact Bezier curves.
+
+jaxsubdiv's y axis points up and SVG's points down, so reading negates y and writing
+wraps the drawing in `<g transform="scale(1,-1)">`: a shape reads and draws upright,
+and a file written here reads back to the same numbers.
+"""
+
+import math
+import re
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from .common import (
+    DEFAULT_SAMPLES,
+    Outline,
+    arc_length_targets,
+    fail,
+    make_outline,
+    open_for_writing,
+    read_bytes,
+)
+
+
+# A segment is (kind, data): "L" line (2, 2), "Q" quadratic (3, 2), "C" cubic (4, 2)
+# control points; "A" an elliptical arc (cx, cy, rx, ry, phi, theta1, dtheta).
+Segment = tuple[str, np.ndarray]
+
+# Table points per curved segment used to measure arc length; the samples themselves
+# are evaluated exactly on the segment.
+_TABLE = 64
+
+
+def evaluate(segment: Segment, t: np.ndarray) -> np.ndarray:
+    """Points of one segment at parameters `t` in [0, 1], shape `(len(t), 2)`."""
+    kind, data = segment
+    t = np.asarray(t, dtype=np.float64)[:, None]
+    s = 1 - t
+    if kind == "L":
+        return s * data[0] + t * data[1]
+    if kind == "Q":
+        return s * s * data[0] + 2 * s * t * data[1] + t * t * data[2]
+    if kind == "C":
+        return s**3 * data[0] + 3 * s * s * t * data[1] + 3 * s * t * t * data[2] + t**3 * data[3]
+    cx, cy, rx, ry, phi, theta1, dtheta = data
+    theta = theta1 + t[:, 0] * dtheta
+    x, y = rx * np.cos(theta), ry * np.sin(theta)
+    c, n = math.cos(phi), math.sin(phi)
+    return np.stack([cx + c * x - n * y, cy + n * x + c * y], axis=-1)
+
+
+def arc_segment(p0, rx, ry, angle, large, sweep, p1) -> Segment | None:
+    """The SVG arc from `p0` to `p1` by the endpoint-to-center conversion of the SVG 1.1
+    specification (implementation notes F.6.5, with the radius correction of F.6.6).
+    A zero radius is a straight line; equal end points draw nothing."""
+    if np.array_equal(p0, p1):
+        return None
+    rx, ry = abs(rx), abs(ry)
+    if rx == 0 or ry == 0:
+        return ("L", np.array([p0, p1]))
+    phi = math.radians(angle % 360)
+    c, n = math.cos(phi), math.sin(phi)
+    hx, hy = (p0[0] - p1[0]) / 2, (p0[1] - p1[1]) / 2
+    x1, y1 = c * hx + n * hy, -n * hx + c * hy
+    scale = x1 * x1 / (rx * rx) + y1 * y1 / (ry * ry)
+    if scale > 1:
+        rx, ry = rx * math.sqrt(scale), ry * math.sqrt(scale)
+    num = rx * rx * ry * ry - rx * rx * y1 * y1 - ry * ry * x1 * x1
+    den = rx * rx * y1 * y1 + ry * ry * x1 * x1
+    root = math.sqrt(max(0.0, num / den))
+    if large == sweep:
+        root = -root
+    cx1, cy1 = root * rx * y1 / ry, -root * ry * x1 / rx
+    cx = c * cx1 - n * cy1 + (p0[0] + p1[0]) / 2
+    cy = n * cx1 + c * cy1 + (p0[1] + p1[1]) / 2
+    theta1 = math.atan2((y1 - cy1) / ry, (x1 - cx1) / rx)
+    theta2 = math.atan2((-y1 - cy1) / ry, (-x1 - cx1) / rx)
+    dtheta = theta2 - theta1
+    if sweep and dtheta < 0:
+        dtheta += 2 * math.pi
+    elif not sweep and dtheta > 0:
+        dtheta -= 2 * math.pi
+    return ("A", np.array([cx, cy, rx, ry, phi, theta1, dtheta]))
+
+
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+_SPACE = re.compile(r"[\s,]*")
+_COMMANDS = "MmZzLlHhVvCcSsQqTtAa"
+_ARITY = {"M": 2, "L": 2, "H": 1, "V": 1, "C": 6, "S": 4, "Q": 4, "T": 2, "A": 7, "Z": 0}
+
+
+class _Scanner:
+    def __init__(self, d: str, path):
+        self.d, self.i, self.path = d, 0, path
+
+    def error(self, message: str):
+        near = self.d[max(0, self.i - 10) : self.i + 10].strip()
+        return fail(self.path, f"bad path data at character {self.i} (near {near!r}): {message}")
+
+    def skip(self) -> bool:
+        """Skip separators; True if something is left."""
+        self.i = _SPACE.match(self.d, self.i).end()
+        return self.i < len(self.d)
+
+    def at_number(self) -> bool:
+        return self.skip() and self.d[self.i] in "+-.0123456789"
+
+    def number(self, command: str) -> float:
+        self.skip()
+        match = _NUMBER.match(self.d, self.i)
+        if not match:
+            raise self.error(f"expected a number for '{command}'.")
+        self.i = match.end()
+        return float(match.group())
+
+    def flag(self, command: str) -> bool:
+        self.skip()
+        if self.i < len(self.d) and self.d[self.i] in "01":
+            self.i += 1
+            return self.d[self.i - 1] == "1"
+        raise self.error(f"expected a flag 0 or 1 for '{command}'.")
+
+
+def parse_path(d: str, path) -> list[tuple[list[Segment], bool]]:
+    """Parse SVG path data into subpaths: (segments, closed) in the path's coordinates.
+
+    Every command of SVG 1.1 section 8.3, absolute and relative, with implicit repeats
+    (extra pairs after `M` are `L`). `S` and `T` reflect the previous control point when
+    the previous command was a cubic (`C`/`S`) or quadratic (`Q`/`T`) one.
+    """
+    scan = _Scanner(d, path)
+    subpaths, segments = [], []
+    current = start = np.zeros(2)
+    control = None  # (kind, point): last control point, for S and T
+    command = None
+    while scan.skip():
+        letter = scan.d[scan.i]
+        if letter in _COMMANDS:
+            if command is None and letter not in "Mm":
+                raise scan.error("path data must start with 'M'.")
+            scan.i += 1
+            command = letter
+        elif command is None:
+            raise scan.error("path data must start with a command (M).")
+        elif command in "Zz" or not scan.at_number():
+            raise scan.error(f"unexpected {letter!r}.")
+        upper, relative = command.upper(), command.islower()
+        if upper == "Z":
+            if not np.array_equal(current, start):
+                segments.append(("L", np.array([current, start])))
+            if segments:
+                subpaths.append((segments, True))
+            segments, current, control = [], start, None
+            continue
+        if upper == "A":
+            rx, ry, angle = scan.number(command), scan.number(command), scan.number(command)
+            large, sweep = scan.flag(command), scan.flag(command)
+            values = [scan.number(command), scan.number(command)]
+        else:
+            values = [scan.number(command) for _ in range(_ARITY[upper])]
+        base = current if relative else np.zeros(2)
+        if upper == "H":
+            end = np.array([values[0] + (current[0] if relative else 0), current[1]])
+        elif upper == "V":
+            end = np.array([current[0], values[0] + (current[1] if relative else 0)])
+        else:
+            pts = np.array(values, dtype=np.float64).reshape(-1, 2) + base
+            end = pts[-1]
+        new_control = None
+        if upper == "M":
+            if segments:
+                subpaths.append((segments, False))
+            segments, start = [], end
+            command = "l" if relative else "L"  # implicit repeats are line-tos
+        elif upper in "LHV":
+            if not np.array_equal(current, end):
+                segments.append(("L", np.array([current, end])))
+        elif upper == "C":
+            segments.append(("C", np.array([current, pts[0], pts[1], end])))
+            new_control = ("C", pts[1])
+        elif upper == "S":
+            first = 2 * current - control[1] if control and control[0] == "C" else current
+            segments.append(("C", np.array([current, first, pts[0], end])))
+            new_control = ("C", pts[0])
+        elif upper == "Q":
+            segments.append(("Q", np.array([current, pts[0], end])))
+            new_control = ("Q", pts[0])
+        elif upper == "T":
+            middle = 2 * current - control[1] if control and control[0] == "Q" else current
+            segments.append(("Q", np.array([current, middle, end])))
+            new_control = ("Q", middle)
+        else:  # A
+            arc = arc_segment(current, rx, ry, angle, large, sweep, end)
+            if arc is not None:
+                segments.append(arc)
+        current, control = end, new_control
+    if segments:
+        subpaths.append((segments, False))
+    return subpaths
+
+
+def _end(segment: Segment) -> np.ndarray:
+    kind, data = segment
+    return evaluate(segment, np.ones(1))[0] if kind == "A" else data[-1]
+
+
+def sample_contour(segments: list[Segment], closed: bool, matrix: np.ndarray, samples):
+    """Points of a contour after the affine `matrix` (3 x 3), equally spaced by arc length.
+
+    Each sample is evaluated exactly on its segment; arc length is measured on a table
+    of `_TABLE` points per curved segment, so the spacing is equal to the accuracy of
+    that table. A contour of straight segments keeps its vertices when `samples` is None.
+    """
+    linear, shift = matrix[:2, :2], matrix[:2, 2]
+    transform = lambda p: p @ linear.T + shift
+    if samples is None:
+        if all(kind == "L" for kind, _ in segments):
+            vertices = [data[0] for _, data in segments]
+            if not closed:
+                vertices.append(segments[-1][1][1])
+            return transform(np.array(vertices))
+        samples = DEFAULT_SAMPLES
+    tables, lengths = [], []
+    for segment in segments:
+        t = np.linspace(0.0, 1.0, 2 if segment[0] == "L" else _TABLE + 1)
+        s = np.concatenate(
+            [
+                [0.0],
+                np.cumsum(np.linalg.norm(np.diff(transform(evaluate(segment, t)), axis=0), axis=1)),
+            ]
+        )
+        tables.append((t, s))
+        lengths.append(s[-1])
+    starts = np.concatenate([[0.0], np.cumsum(lengths)])
+    targets = arc_length_targets(starts[-1], samples, closed)
+    which = np.clip(np.searchsorted(starts, targets, side="right") - 1, 0, len(segments) - 1)
+    out = np.empty((samples, 2))
+    for k in np.unique(which):
+        chosen = which == k
+        t, s = tables[k]
+        local = (
+            np.interp(targets[chosen] - starts[k], s, t) if s[-1] > 0 else np.zeros(chosen.sum())
+        )
+        out[chosen] = transform(evaluate(segments[k], local))
+    return out
+
+
+_TRANSFORM = re.compile(r"(matrix|translate|scale|rotate|skewX|skewY)\s*\(([^)]*)\)")
+_SKIP = {"defs", "clipPath", "mask", "symbol", "marker", "pattern", "metadata", "style", "script"}
+
+
+def parse_transform(text: str, path) -> np.ndarray:
+    """The 3 x 3 matrix of an SVG `transform` attribute (SVG 1.1 section 7.6)."""
+    matrix = np.eye(3)
+    for name, args in _TRANSFORM.findall(text or ""):
+        try:
+            v = [float(a) for a in re.split(r"[\s,]+", args.strip()) if a]
+        except ValueError:
+            raise fail(path, f"bad transform {name}({args}).") from None
+        m = np.eye(3)
+        if name == "matrix" and len(v) == 6:
+            m[:2] = [[v[0], v[2], v[4]], [v[1], v[3], v[5]]]
+        elif name == "translate" and len(v) in (1, 2):
+            m[:2, 2] = [v[0], v[1] if len(v) == 2 else 0.0]
+        elif name == "scale" and len(v) in (1, 2):
+            m[0, 0], m[1, 1] = v[0], v[1] if len(v) == 2 else v[0]
+        elif name == "rotate" and len(v) in (1, 3):
+            a = math.radians(v[0])
+            m[:2, :2] = [[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]]
+            if len(v) == 3:
+                m[:2, 2] = np.array(v[1:]) - m[:2, :2] @ v[1:]
+        elif name in ("skewX", "skewY") and len(v) == 1:
+            m[0 if name == "skewX" else 1, 1 if name == "skewX" else 0] = math.tan(
+                math.radians(v[0])
+            )
+        else:
+            raise fail(path, f"bad transform {name}({args}).")
+        matrix = matrix @ m
+    return matrix
+
+
+def _points_attribute(text: str, element: str, path) -> np.ndarray:
+    try:
+        values = [float(v) for v in re.split(r"[\s,]+", text.strip()) if v]
+    except ValueError:
+        raise fail(path, f"<{element}> has a non-numeric value in points={text!r}.") from None
+    if len(values) % 2 or len(values) < 4:
+        raise fail(path, f"<{element}> needs at least two x,y pairs, got points={text!r}.")
+    return np.array(values).reshape(-1, 2)
+
+
+def _contours(element, matrix: np.ndarray, path, found: list) -> None:
+    tag = element.tag.rsplit("}", 1)[-1]
+    if tag in _SKIP:
+        return
+    matrix = matrix @ parse_transform(element.get("transform"), path)
+    if tag == "path" and (element.get("d") or "").strip():
+        for segments, closed in parse_path(element.get("d"), path):
+            if (
+                not closed
+                and len(segments) > 1
+                and np.array_equal(_end(segments[-1]), segments[0][1][0])
+            ):
+                closed = True
+            found.append((segments, closed, matrix))
+    elif tag in ("polygon", "polyline") and (element.get("points") or "").strip():
+        p = _points_attribute(element.get("points"), tag, path)
+        closed = tag == "polygon" or (len(p) > 2 and np.array_equal(p[0], p[-1]))
+        if closed and np.array_equal(p[0], p[-1]):
+            p = p[:-1]
+        ring = np.concatenate([p, p[:1]]) if closed else p
+        segments = [("L", ring[i : i + 2]) for i in range(len(ring) - 1)]
+        found.append((segments, closed, matrix))
+    for child in element:
+        _contours(child, matrix, path, found)
+
+
+_FLIP = np.diag([1.0, -1.0, 1.0])
+
+
+def read_svg(path, samples) -> list[Outline]:
+    """Every `<path>`, `<polygon>` and `<polyline>` of an SVG file, one outline per
+    subpath, in document order, with transforms applied and y pointing up."""
+    try:
+        root = ET.fromstring(read_bytes(path))
+    except ET.ParseError as e:
+        raise fail(path, f"is not valid XML/SVG ({e}).") from None
+    if root.tag.rsplit("}", 1)[-1] != "svg":
+        raise fail(
+            path, f"is not an SVG file (its root element is <{root.tag.rsplit('}', 1)[-1]}>)."
+        )
+    found = []
+    _contours(root, _FLIP, path, found)
+    if not found:
+        raise fail(path, "has no <path>, <polygon> or <polyline> with points to read.")
+    return [
+        make_outline(path, sample_contour(s, c, m, samples), c, f"contour {i}")
+        for i, (s, c, m) in enumerate(found)
+    ]
+
+
+def _number(value) -> str:
+    return repr(float(value))
+
+
+def _svg_document(paths: list[str], points: np.ndarray) -> bytes:
+    """An SVG file drawing `paths` (path data in jaxsubdiv coordinates, y up)."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    size = float(max(hi - lo)) or 1.0
+    pad = 0.05 * size
+    box = [lo[0] - pad, -hi[1] - pad, hi[0] - lo[0] + 2 * pad, hi[1] - lo[1] + 2 * pad]
+    width = 400.0 * box[2] / max(box[2], box[3])
+    height = 400.0 * box[3] / max(box[2], box[3])
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        '<svg xmlns="http://www.w3.org/2000/svg" version="1.1" '
+        f'width="{width:.1f}" height="{height:.1f}" viewBox="{" ".join(_number(v) for v in box)}">',
+        "<!-- written by jaxsubdiv.io; coordinates are y-up, hence scale(1,-1) -->",
+        f'<g transform="scale(1,-1)" fill="none" stroke="black" '
+        f'stroke-width="{_number(size / 200)}" stroke-linejoin="round">',
+        *(f'<path d="{d}"/>' for d in paths),
+        "</g>",
+        "</svg>",
+    ]
+    return ("\n".join(lines) + "\n").encode()
+
+
+def polyline_data(points: np.ndarray, closed: bool) -> str:
+    d = "M " + " L ".join(f"{_number(x)} {_number(y)}" for x, y in points)
+    return d + " Z" if closed else d
+
+
+def write_svg(path, outlines: list[Outline]) -> None:
+    data = _svg_document(
+        [polyline_data(o.points, o.closed) for o in outlines],
+        np.concatenate([o.points for o in outlines]),
+    )
+    with open_for_writing(path) as f:
+        f.write(data)
+
+
+def write_bezier_svg(
+    path, beziers: np.ndarray | None, polyline: np.ndarray | None, closed: bool
+) -> None:
+    """An SVG of one curve: Bezier segments `(s, degree + 1, 2)` or a polyline."""
+    if beziers is None:
+        d, points = polyline_data(polyline, closed), polyline
+    else:
+        letter = {2: "L", 3: "Q", 4: "C"}[beziers.shape[1]]
+        parts = [f"M {_number(beziers[0, 0, 0])} {_number(beziers[0, 0, 1])}"]
+        for b in beziers:
+            parts.append(letter + " " + " ".join(f"{_number(x)} {_number(y)}" for x, y in b[1:]))
+        d = " ".join(parts) + (" Z" if closed else "")
+        points = beziers.reshape(-1, 2)
+    with open_for_writing(path) as f:
+        f.write(_svg_document([d], points))

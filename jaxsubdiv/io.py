@@ -1,0 +1,269 @@
+"""Reading outlines and writing outlines, curves and fit results.
+
+Outlines (the data a curve is fitted to) come from point lists (CSV/TXT, NPY/NPZ, JSON),
+vector drawings (SVG), a text glyph (any font matplotlib can find) or a silhouette image
+(PNG). Curves are written as SVG, with exact Bezier segments where the limit curve is a
+uniform B-spline. Fit results are written as JSON that rebuilds the scheme and the
+control polygon. Every problem with a file is an [`jaxsubdiv.io.OutlineError`][] with a
+one-line message that names the file and says what is wrong.
+
+Coordinates are y-up everywhere; SVG and PNG (y-down) are flipped on the way in and out.
+"""
+
+import os
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+from jaxtyping import ArrayLike, Float
+
+from ._io.common import (
+    DEFAULT_SAMPLES as DEFAULT_SAMPLES,
+    Outline as Outline,
+    OutlineError as OutlineError,
+    check_samples,
+    fail,
+    make_outline,
+    resample_polyline,
+)
+from ._io.curve import bezier_segments, bspline_degree, dense_curve
+from ._io.points import (
+    read_json,
+    read_npy,
+    read_npz,
+    read_table,
+    write_json,
+    write_npy,
+    write_npz,
+    write_table,
+)
+from ._io.raster import read_glyph, read_image
+from ._io.result import (
+    SavedResult as SavedResult,
+    read_result_json as _read_result,
+    write_result_json as _write_result,
+)
+from ._io.svg import read_svg, write_bezier_svg, write_svg
+from ._scheme.base import AbstractCurveScheme
+
+
+#: The file kinds `read_outlines` and `write_outlines` know, by file extension.
+KINDS = ("csv", "txt", "npy", "npz", "json", "svg", "png")
+_WRITABLE = ("csv", "txt", "npy", "npz", "json", "svg")
+
+
+def _kind(path, kind, allowed) -> str:
+    if kind is None:
+        kind = Path(path).suffix.lstrip(".").lower()
+        if kind not in allowed:
+            raise fail(
+                path,
+                f"cannot tell the format from the extension {Path(path).suffix!r}; use one of "
+                f"{', '.join('.' + k for k in allowed)} or pass kind=.",
+            )
+        return kind
+    if kind not in allowed:
+        raise fail(path, f"unknown kind {kind!r}; expected one of {', '.join(allowed)}.")
+    return kind
+
+
+def read_outlines(
+    path: str | os.PathLike | None = None,
+    *,
+    kind: Literal["csv", "txt", "npy", "npz", "json", "svg", "png"] | None = None,
+    samples: int | None = None,
+    text: str | None = None,
+    font: str | None = None,
+    threshold: float = 0.5,
+) -> list[Outline]:
+    """Read the outlines (contours) of a file, or of a text glyph.
+
+    Use it to get the target of a fit from whatever the user has. Several contours in one
+    input (the letter "o", a drawing with several paths) come back as several outlines,
+    each to be fitted separately.
+
+    **Arguments:**
+
+    - `path`: the file. The format comes from its extension (`.csv`, `.txt`, `.npy`,
+      `.npz`, `.json`, `.svg`, `.png`) unless `kind` is given:
+        - CSV/TXT: `x, y` per line (commas, semicolons or whitespace), `#` comments, an
+          optional header line. Blank lines separate outlines; a comment
+          `# closed: false` marks an open one.
+        - NPY: an `(m, 2)` array (or `(k, m, 2)` for k outlines), closed. NPZ: as
+          written by `write_outlines`, or any archive with a single `(m, 2)` array.
+        - JSON: `{"points": [[x, y], ...], "closed": true}`, a bare list of pairs, or
+          `{"outlines": [...]}` of such objects.
+        - SVG: every `<path>` (all commands of SVG 1.1, absolute and relative;
+          arcs by the specification's endpoint-to-center conversion), `<polygon>` and
+          `<polyline>`, with their `transform`s; one outline per subpath. A subpath is
+          closed if it ends with `Z` or returns exactly to its start.
+        - PNG: the outer contours of a silhouette (see `threshold`), in pixels.
+    - `kind`: the format, overriding the extension.
+    - `samples`: points per outline, spaced equally by arc length. Curved SVG
+      segments and glyphs are sampled exactly on the curve (default
+      `DEFAULT_SAMPLES` = 400); point lists, polygons and PNG contours are resampled
+      along their polyline only if `samples` is given (else kept as they are).
+    - `text`: instead of `path`, the characters whose glyph outlines to read, e.g.
+      `"&"`; the font size is 1.
+    - `font`: with `text`, a font family known to matplotlib's font manager or a font
+      file; default matplotlib's default font (DejaVu Sans).
+    - `threshold`: for PNG, the gray level (or alpha level, for an image with
+      transparency) between 0 and 1 that separates the silhouette from the background.
+      Which side is the background is decided by the image border.
+
+    **Returns:** a list of [`jaxsubdiv.io.Outline`][] (`points` `(m, 2)` and `closed`).
+
+    **Raises:** [`jaxsubdiv.io.OutlineError`][] for a missing, unreadable, empty or
+    malformed file, with the file (and line) and the problem in one line.
+    """
+    samples = check_samples(samples)
+    if text is not None:
+        if path is not None:
+            raise ValueError("pass either `path` or `text=`, not both.")
+        return read_glyph(text, font=font, samples=samples)
+    if path is None:
+        raise ValueError("pass a file `path`, or `text=` for a glyph.")
+    if font is not None:
+        raise ValueError("`font` is only used with `text=`.")
+    kind = _kind(path, kind, KINDS)
+    if kind == "svg":
+        return read_svg(path, samples)
+    if kind == "png":
+        return read_image(path, threshold=threshold, samples=samples)
+    reader = {
+        "csv": read_table,
+        "txt": read_table,
+        "npy": read_npy,
+        "npz": read_npz,
+        "json": read_json,
+    }[kind]
+    outlines = reader(path)
+    if samples is not None:
+        outlines = [
+            Outline(resample_polyline(o.points, samples, o.closed), o.closed) for o in outlines
+        ]
+    return outlines
+
+
+def write_outlines(
+    path: str | os.PathLike,
+    outlines: list[Outline],
+    *,
+    kind: Literal["csv", "txt", "npy", "npz", "json", "svg"] | None = None,
+) -> None:
+    """Write outlines in any format `read_outlines` reads (except PNG).
+
+    Numbers are written in full precision, so reading the file back gives the same
+    numbers. A `.npy` file holds one outline and no `closed` flag (it reads back
+    closed); the other formats hold several and keep the flag. SVG gets one
+    polyline `<path>` per outline.
+
+    **Arguments:**
+
+    - `path`: the file; the format comes from its extension unless `kind` is given.
+    - `outlines`: a list of [`jaxsubdiv.io.Outline`][].
+    - `kind`: the format, overriding the extension.
+    """
+    kind = _kind(path, kind, _WRITABLE)
+    if isinstance(outlines, Outline):
+        outlines = [outlines]
+    if not outlines:
+        raise ValueError("`outlines` is empty: nothing to write.")
+    outlines = [
+        make_outline(path, o.points, o.closed, f"outline {i}") for i, o in enumerate(outlines)
+    ]
+    if kind in ("csv", "txt"):
+        write_table(path, outlines, kind)
+    elif kind == "npy":
+        write_npy(path, outlines)
+    elif kind == "npz":
+        write_npz(path, outlines)
+    elif kind == "json":
+        write_json(path, outlines)
+    else:
+        write_svg(path, outlines)
+
+
+def write_points(
+    path: str | os.PathLike,
+    points: Float[ArrayLike, "m 2"],
+    *,
+    closed: bool = True,
+    kind: Literal["csv", "txt", "npy", "npz", "json", "svg"] | None = None,
+) -> None:
+    """Write one polygon or polyline, e.g. a control polygon or the samples of a curve.
+
+    Shorthand for `write_outlines(path, [Outline(points, closed)], kind=kind)`.
+    """
+    write_outlines(path, [Outline(np.asarray(points, dtype=np.float64), closed)], kind=kind)
+
+
+def write_curve_svg(
+    path: str | os.PathLike,
+    control_points: Float[ArrayLike, "n 2"],
+    scheme: AbstractCurveScheme,
+    *,
+    boundary: Literal["closed", "open", "clamped"] = "closed",
+    levels: int | None = None,
+) -> bool:
+    """Write the limit curve of a control polygon as an SVG path.
+
+    When the limit curve is a uniform B-spline of degree at most 3 (the mask is
+    $\\binom{d+1}{k}/2^d$: [`jaxsubdiv.CubicBSpline`][], [`jaxsubdiv.Chaikin`][],
+    `LaneRiesenfeld(1, 2 or 3)`, ...) the path is the exact curve: one cubic (or
+    quadratic, or straight) Bezier segment per span, for every boundary. Otherwise it is
+    a dense polyline through exact limit points ([`jaxsubdiv.limit_points`][] of
+    `refine(control_points, scheme, levels)`).
+
+    **Arguments:**
+
+    - `path`: the SVG file to write.
+    - `control_points`: the control polygon, `(n, 2)`.
+    - `scheme`: the subdivision scheme.
+    - `boundary`: `"closed"`, `"open"` or `"clamped"`, as for [`jaxsubdiv.refine`][].
+    - `levels`: refinement levels for the polyline (default: enough for about 2048
+      points); not used for exact curves.
+
+    **Returns:** True when the file holds the exact curve (Bezier segments), False for
+    a polyline.
+    """
+    points = make_outline(path, control_points, False, "the control points").points
+    if boundary not in ("closed", "open", "clamped"):
+        raise ValueError(f"`boundary` must be 'closed', 'open' or 'clamped', got {boundary!r}.")
+    degree = bspline_degree(scheme)
+    minimum = {1: 2, 2: 3, 3: 4}.get(degree, 0) if boundary == "open" else 2
+    if degree is not None and len(points) >= minimum:
+        write_bezier_svg(
+            path, bezier_segments(points, degree, boundary), None, boundary == "closed"
+        )
+        return True
+    curve = dense_curve(points, scheme, boundary, levels)
+    write_bezier_svg(path, None, curve, boundary == "closed")
+    return False
+
+
+def write_result_json(path: str | os.PathLike, result, *, info: dict | None = None) -> None:
+    """Save a fit so that it can be reproduced and its curve redrawn.
+
+    The file records the scheme (its class and constructor arguments, e.g. the fitted
+    `w`), the boundary and levels, the control points, the error measures, and the
+    solver's status, message and number of steps.
+
+    **Arguments:**
+
+    - `path`: the JSON file to write.
+    - `result`: a single (not batched) `fitting.FitResult`, or a dict with at least
+      `control_points` and `scheme` and optionally `boundary`, `levels`, `errors` (a
+      dict of numbers) and anything else JSON can hold (saved under `info`).
+    - `info`: more JSON values to save, such as the run's input file and options.
+    """
+    _write_result(path, result, info=info)
+
+
+def read_result_json(path: str | os.PathLike) -> SavedResult:
+    """Read a file written by [`jaxsubdiv.io.write_result_json`][].
+
+    **Returns:** a [`jaxsubdiv.io.SavedResult`][] with the rebuilt scheme, the control
+    points, boundary, levels, errors and the other saved information.
+    """
+    return _read_result(path)
