@@ -11,3 +11,4 @@ from ._fit import (
     fit_batch as fit_batch,
 )
 from ._init import order_samples as order_samples
+from ._progress import progress_verbose as progress_verbose

@@ -14,6 +14,7 @@ import jaxsubdiv as js
 from jaxsubdiv._misc import as_float_array, is_traced, static_int
 from jaxsubdiv._refine import _min_points
 
+from . import _progress
 from ._curve import curve_polyline, distances, foot_residual, project
 from ._init import initial_control, order_samples, second_differences
 from ._params import fitted_names, from_unconstrained, to_unconstrained
@@ -90,19 +91,25 @@ class FitResult(eqx.Module):
         return text(int(codes)) if codes.ndim == 0 else [text(int(c)) for c in codes.ravel()]
 
 
-def _make_solver(solver, rtol: float, atol: float):
-    # Normal equations + Cholesky: 14-200x faster than the default QR on these small,
-    # well-conditioned control-point problems, with the same steps (benchmarks/fit).
+def _make_solver(solver, rtol: float, atol: float, progress: bool = False):
+    # Normal equations + Cholesky: 14-200x faster than the default QR on small,
+    # well-conditioned control-point problems, with the same steps (shared notes, d2).
     normal = lx.Normal(lx.Cholesky())
+    verbose = _progress.progress_verbose if progress else False
     if solver is None or solver == "levenberg-marquardt":
-        return optx.LevenbergMarquardt(rtol, atol, linear_solver=normal)
+        return optx.LevenbergMarquardt(rtol, atol, linear_solver=normal, verbose=verbose)
     if solver == "gauss-newton":
-        return optx.GaussNewton(rtol, atol, linear_solver=normal)
+        return optx.GaussNewton(rtol, atol, linear_solver=normal, verbose=verbose)
     if solver == "dogleg":
-        return optx.Dogleg(rtol, atol, linear_solver=normal)
+        return optx.Dogleg(rtol, atol, linear_solver=normal, verbose=verbose)
     if solver == "bfgs":
-        return optx.BFGS(rtol, atol)
+        return optx.BFGS(rtol, atol, verbose=verbose)
     if isinstance(solver, (optx.AbstractLeastSquaresSolver, optx.AbstractMinimiser)):
+        if progress:
+            raise ValueError(
+                "`progress=True` works with the named solvers; for your own solver "
+                "instance pass `verbose=fitting.progress_verbose` to it instead."
+            )
         return solver
     raise ValueError(
         f"`solver` must be one of {SOLVERS}, an optimistix least-squares solver or "
@@ -351,6 +358,7 @@ def fit(
     weights: Float[ArrayLike, " m"] | None = None,
     smoothing: float = 0.0,
     ordered: bool = True,
+    progress: bool = False,
     on_failure: Literal["raise", "warn", "ignore"] = "warn",
 ) -> FitResult:
     """Fit a control polygon (and optionally the scheme's parameters) to an outline.
@@ -396,6 +404,7 @@ def fit(
     - `smoothing`: weight of a second-difference penalty on the control points, relative
       to the mean squared distance (in units of the outline's size).
     - `ordered`: False to order unordered samples first ([`fitting.order_samples`][]).
+    - `progress`: show the step count and loss on stderr while the solver runs.
     - `on_failure`: what to do if the solver does not converge: `"raise"` a
       `RuntimeError`, `"warn"` (default) or `"ignore"`. The last iterate is always
       returned, with `converged` False and the reason in `message`.
@@ -425,9 +434,13 @@ def fit(
         init = None if init is None else init.astype(jnp.float64)
     result = _fit_jit(
         target, weights, scheme, init, jnp.asarray(smoothing, target.dtype), n=n,
-        levels=levels, boundary=boundary, names=names, solver=_make_solver(solver, tol, tol),
-        max_steps=max_steps, smooth_rows=smooth_rows,
+        levels=levels, boundary=boundary, names=names,
+        solver=_make_solver(solver, tol, tol, progress), max_steps=max_steps,
+        smooth_rows=smooth_rows,
     )
+    if progress:
+        jax.block_until_ready(result)
+        _progress.finish()
     if result.control_points.dtype != dtype:
         cast = lambda x: x.astype(dtype) if eqx.is_inexact_array(x) else x
         result = jax.tree.map(cast, result)
@@ -489,6 +502,7 @@ def fit_batch(
     smoothing: float = 0.0,
     ordered: bool = True,
     devices=None,
+    progress: bool = False,
     on_failure: Literal["raise", "warn", "ignore"] = "warn",
 ) -> FitResult:
     """Fit many outlines at once; the same settings as [`fitting.fit`][].
@@ -507,6 +521,8 @@ def fit_batch(
     - `max_steps`: solver step limit per item (default 100: a batched loop runs until
       its slowest item stops, so keep it modest).
     - `devices`: the devices to split the batch over.
+    - `progress`: one line on stderr for the whole batch (the most steps any item has
+      taken, the largest loss).
     - others: as for [`fitting.fit`][]. Items whose samples are not finite are not
       fitted and get status `nonfinite_input`.
 
@@ -559,12 +575,16 @@ def fit_batch(
         tol = 1e-7 if stacked.dtype == jnp.float64 else 1e-5
     static = dict(
         n=n, levels=levels, boundary=boundary, names=names,
-        solver=_make_solver(solver, tol, tol), max_steps=max_steps, smooth_rows=smooth_rows,
+        solver=_make_solver(solver, tol, tol, progress), max_steps=max_steps,
+        smooth_rows=smooth_rows,
     )
     result = _run_batch(
         stacked, stacked_weights, scheme, jnp.asarray(smoothing, stacked.dtype), static,
         jax.devices() if devices is None else list(devices),
     )
+    if progress:
+        jax.block_until_ready(result)
+        _progress.finish()
     if bad:
         code = STATUSES.index("nonfinite_input")
         result = eqx.tree_at(lambda r: r.status, result, result.status.at[jnp.array(bad)].set(code))

@@ -369,3 +369,25 @@ def test_unordered_under_tracing_is_a_clear_error():
         jax.grad(lambda t: fitting.fit(t, js.CubicBSpline(), 8, ordered=False).rms)(
             jnp.asarray(blob(100))
         )
+
+
+# --------------------------------------------------------------------------------------
+# Progress display
+
+
+def test_progress_is_off_by_default_and_one_line_for_a_batch(capfd, monkeypatch):
+    import fitting._progress as progress
+
+    calls = []
+    monkeypatch.setattr(progress, "_show", lambda step, loss: calls.append(int(step)))
+    samples = blob(90, seed=13)
+    fitting.fit(samples, js.CubicBSpline(), 9)
+    assert capfd.readouterr().err == "" and calls == []
+    single = fitting.fit(samples, js.CubicBSpline(), 9, progress=True)
+    # One update per solver step, counted from 0.
+    assert calls == list(range(int(single.num_steps)))
+    calls.clear()
+    batch = fitting.fit_batch([samples, blob(90, seed=14), blob(90, seed=15)],
+                              js.CubicBSpline(), 9, progress=True)
+    # One line for the batch: as many updates as its slowest item takes steps, not 3x.
+    assert calls == list(range(int(np.max(np.asarray(batch.num_steps)))))

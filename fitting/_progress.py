@@ -1,0 +1,47 @@
+"""A one-line progress display for long fits and batches (off by default).
+
+optimistix calls a solver's `verbose` callable while tracing, with the step count and
+loss as traced values; a `jax.debug.callback` then prints them on the host at every
+step. Under `vmap` the values are reduced over the batch first (the most steps taken,
+the largest loss), so a batch shows one line, not one per item, as diffrax's progress
+meter does.
+"""
+
+import sys
+import time
+
+import equinox.internal as eqxi
+import jax
+
+
+_state = {"last": 0.0, "start": 0.0}
+
+
+def _show(step, loss):
+    now = time.perf_counter()
+    if int(step) == 0:
+        _state["start"] = now
+    elif now - _state["last"] < 0.1:  # at most ten updates a second
+        return
+    _state["last"] = now
+    sys.stderr.write(
+        f"\r  fitting: step {int(step):4d}  loss {float(loss):.3e}  "
+        f"{now - _state['start']:6.1f} s"
+    )
+    sys.stderr.flush()
+
+
+def progress_verbose(**kwargs):
+    """A `verbose=` callable for optimistix solvers (module level, so it is hashable and
+    the compiled solve is reused)."""
+    if "num_steps" not in kwargs:  # e.g. BFGS reports fewer fields: show nothing
+        return
+    step = eqxi.unvmap_max(kwargs["num_steps"][1])
+    loss = eqxi.unvmap_max(kwargs["loss_this_step"][1])
+    jax.debug.callback(_show, step, loss, ordered=True)
+
+
+def finish():
+    """End the progress line."""
+    sys.stderr.write("\n")
+    sys.stderr.flush()
