@@ -170,3 +170,17 @@ def splprep_curve(samples, n, dense=4096):
     knots = np.arange(-3, n + 4) / n  # the full periodic knot vector
     tck, _ = si.splprep(list(P.T), u=u, k=3, task=-1, t=knots, per=1)
     return np.stack(si.splev(np.arange(dense) / dense, tck), -1)
+
+
+# --------------------------------------------------------------------------------------
+# Meshes for the surface tests.
+
+
+def prism():
+    """A closed pentagonal prism: two pentagons and five quads (mixed polygons)."""
+    t = 2 * np.pi * np.arange(5) / 5
+    v = np.concatenate([np.stack([np.cos(t), np.sin(t), -np.ones(5)], 1),
+                        np.stack([np.cos(t), np.sin(t), np.ones(5)], 1)])  # fmt: skip
+    faces = [[4, 3, 2, 1, 0], [5, 6, 7, 8, 9]]
+    faces += [[i, (i + 1) % 5, 5 + (i + 1) % 5, 5 + i] for i in range(5)]
+    return v, faces

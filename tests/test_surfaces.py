@@ -6,6 +6,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.interpolate
+from helpers import prism
 
 import jaxsubdiv as js
 import jaxsubdiv.surfaces as jss
@@ -50,15 +51,6 @@ def icosahedron():
     )  # fmt: skip
     return v, f
 
-
-def prism():
-    """A closed pentagonal prism: two pentagons and five quads (mixed polygons)."""
-    t = 2 * np.pi * np.arange(5) / 5
-    v = np.concatenate([np.stack([np.cos(t), np.sin(t), -np.ones(5)], 1),
-                        np.stack([np.cos(t), np.sin(t), np.ones(5)], 1)])  # fmt: skip
-    faces = [[4, 3, 2, 1, 0], [5, 6, 7, 8, 9]]
-    faces += [[i, (i + 1) % 5, 5 + (i + 1) % 5, 5 + i] for i in range(5)]
-    return v, faces
 
 
 def grid(m, n, seed=0, triangles=False):

@@ -1,5 +1,6 @@
 """Mesh files: OBJ, OFF and ASCII PLY reading, writing and errors."""
 
+import helpers
 import numpy as np
 import pytest
 
@@ -7,12 +8,8 @@ import jaxsubdiv.surfaces as jss
 
 
 def prism():
-    t = 2 * np.pi * np.arange(5) / 5
-    v = np.concatenate([np.stack([np.cos(t), np.sin(t), -np.ones(5)], 1),
-                        np.stack([np.cos(t), np.sin(t), np.ones(5)], 1)])  # fmt: skip
-    faces = [[4, 3, 2, 1, 0], [5, 6, 7, 8, 9]]
-    faces += [[i, (i + 1) % 5, 5 + (i + 1) % 5, 5 + i] for i in range(5)]
-    return v + np.pi / 100, faces
+    v, faces = helpers.prism()
+    return v + np.pi / 100, faces  # coordinates that are not round numbers
 
 
 @pytest.mark.parametrize("fmt", ["obj", "off", "ply"])
