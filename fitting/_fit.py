@@ -524,7 +524,7 @@ def fit_batch(
     - `progress`: one line on stderr for the whole batch (the most steps any item has
       taken, the largest loss).
     - others: as for [`fitting.fit`][]. Items whose samples are not finite are not
-      fitted and get status `nonfinite_input`.
+      fitted: their status is `nonfinite_input` and their numbers are NaN.
 
     **Returns:** one [`fitting.FitResult`][] whose array fields have a leading batch axis
     (for a ragged list, `curve` and the control points have the common shapes).
@@ -549,22 +549,18 @@ def fit_batch(
         raise ValueError("`fit_batch(weights=...)` needs one weight array per target.")
     prepared, bad = [], []
     for i, (t, w) in enumerate(zip(items, weights)):
-        finite = is_traced(t) or bool(np.all(np.isfinite(np.asarray(t))))
-        if not finite:
+        if not is_traced(t) and not np.all(np.isfinite(np.asarray(t))):
             bad.append(i)
-            t = jnp.nan_to_num(t)  # fitted as a placeholder, reported as failed
-        try:
-            t, w, n, levels_i, names, smooth_rows = prepare(
-                t, scheme, n_control, levels=levels, boundary=boundary,
-                fit_params=fit_params, weights=w, ordered=ordered, smoothing=smoothing,
-                caller=f"fit_batch(targets[{i}])",
-            )
-        except ValueError:
-            if not finite:  # the placeholder may look degenerate; the item is failed anyway
-                t, w = jnp.asarray(items[0]) if i else t, jnp.ones((t.shape[0],), t.dtype)
-                prepared.append((jnp.nan_to_num(t), w))
-                continue
-            raise
+            # A stand-in that passes validation, so the batch keeps its shape; the item's
+            # outputs are replaced by NaN and its status by nonfinite_input below.
+            angle = 2 * np.pi * np.arange(t.shape[0]) / t.shape[0]
+            circle = np.zeros(t.shape)
+            circle[:, 0], circle[:, 1] = np.cos(angle), np.sin(angle)
+            t, w = jnp.asarray(circle, t.dtype), None
+        t, w, n, _, names, smooth_rows = prepare(
+            t, scheme, n_control, levels=levels, boundary=boundary, fit_params=fit_params,
+            weights=w, ordered=ordered, smoothing=smoothing, caller=f"fit_batch(targets[{i}])",
+        )
         prepared.append((t, w))
     m_max = max(t.shape[0] for t, _ in prepared)
     if levels is None:
@@ -586,7 +582,10 @@ def fit_batch(
         jax.block_until_ready(result)
         _progress.finish()
     if bad:
+        index = jnp.array(bad)
         code = STATUSES.index("nonfinite_input")
-        result = eqx.tree_at(lambda r: r.status, result, result.status.at[jnp.array(bad)].set(code))
+        blank = lambda x: x.at[index].set(jnp.nan) if eqx.is_inexact_array(x) else x
+        result = jax.tree.map(blank, result)
+        result = eqx.tree_at(lambda r: r.status, result, result.status.at[index].set(code))
     report(result, on_failure, caller="fit_batch")
     return result
