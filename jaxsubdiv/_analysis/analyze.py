@@ -106,7 +106,7 @@ class Analysis(eqx.Module):
             f"  support            ({lo:g}, {hi:g}) around each control point",
             f"  type               {'primal' if self.primal else 'dual'}, "
             f"{'interpolating' if self.interpolating else 'approximating'}",
-            f"  neighborhood      {self.location}: ({positions})",
+            f"  neighborhood       {self.location}: ({positions})",
             f"  eigenvalues        {_fmt(self.eigenvalues)}",
             f"  limit stencil      {_fmt(self.limit_stencil)}",
             f"  tangent stencil    {_fmt(self.tangent_stencil)}",
