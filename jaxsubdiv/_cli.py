@@ -5,26 +5,6 @@ import sys
 import time
 
 
-def _glyph_outline(char: str, samples: int):
-    """Outer contour of a DejaVu Sans glyph (bundled with matplotlib), `samples` points
-    evenly spaced by arc length."""
-    import numpy as np
-    from matplotlib.font_manager import FontProperties
-    from matplotlib.textpath import TextPath
-
-    if not char.strip():
-        raise ValueError(f"--text {char!r} has no outline to fit; give a visible glyph")
-    path = TextPath((0, 0), char, size=1.0, prop=FontProperties(family="DejaVu Sans"))
-    polygons = path.to_polygons(closed_only=True)
-    if not polygons:
-        raise ValueError(f"the glyph {char!r} has no closed outline")
-    outer = max(polygons, key=lambda p: np.ptp(p, axis=0).prod())
-    closed = np.vstack([outer, outer[:1]]) if not np.allclose(outer[0], outer[-1]) else outer
-    s = np.r_[0, np.cumsum(np.linalg.norm(np.diff(closed, axis=0), axis=1))]
-    t = (np.arange(samples) + 0.5) / samples * s[-1]
-    return np.stack([np.interp(t, s, closed[:, k]) for k in range(2)], axis=-1)
-
-
 # CLI name -> (constructor, the parameter options it takes)
 _SCHEMES = {
     "chaikin": (lambda a: _js().Chaikin(), ()),
@@ -134,7 +114,9 @@ def _demo(args) -> int:
 
     if args.samples < 4 * args.n:
         raise ValueError(f"--samples must be at least 4 x --n = {4 * args.n}")
-    target = _glyph_outline(args.text, args.samples)
+    outlines = js.io.read_outlines(text=args.text, font="DejaVu Sans", samples=args.samples)
+    # A glyph with holes has several contours: fit the outer one (the largest).
+    target = max((o.points for o in outlines), key=lambda p: np.ptp(p, axis=0).prod())
     size = float(np.linalg.norm(np.ptp(target, axis=0)))
     print(
         f"fitting a closed cubic B-spline with {args.n} control points to the outline of "
