@@ -1,0 +1,148 @@
+"""`jaxsubdiv edit [INPUT]`: the interactive editor from the command line.
+
+Wired into `jaxsubdiv._cli` with `add_parser(subparsers)`; `run(args)` returns the exit
+status (a `ValueError`/`OSError` it raises becomes one line on stderr and status 2 there).
+"""
+
+import argparse
+
+
+_CURVE_NAMES = ("cubic-bspline", "four-point", "jarek", "chaikin", "corner-cutting")
+_FIT_SCHEMES = _CURVE_NAMES
+
+
+def _curves(text: str) -> tuple[str, ...]:
+    names = tuple(name.strip() for name in text.split(",") if name.strip())
+    bad = [name for name in names if name not in _CURVE_NAMES]
+    if bad:
+        raise argparse.ArgumentTypeError(
+            f"unknown curve {bad[0]!r}; choose from {', '.join(_CURVE_NAMES)}"
+        )
+    return names
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the `edit` subcommand to an argparse `subparsers` object and return it."""
+    parser = subparsers.add_parser(
+        "edit",
+        help="interactive editor: drag control points, watch the curves and their smoothness",
+        description=(
+            "Open the interactive subdivision-curve editor on INPUT (its largest outline "
+            "becomes the control polygon), a built-in --shape, or a default star. With "
+            "--fit, fit --n control points to the outline first and edit the fit. With "
+            "--png, draw the editor into a PNG and exit (no display needed). Keys: press h "
+            "in the window; see docs/editor.md."
+        ),
+    )
+    parser.add_argument("input", nargs="?", help="CSV/TXT, NPY/NPZ, JSON, SVG or PNG outline")
+    parser.add_argument("--shape", help="a built-in shape instead of INPUT (jaxsubdiv.shapes)")
+    parser.add_argument("--fit", action="store_true",
+                        help="fit the outline with --n control points, then edit the fit")
+    parser.add_argument("--n", type=int, default=16,
+                        help="control points of the fit (with --fit; default: 16)")
+    parser.add_argument("--scheme", default="cubic-bspline", choices=_FIT_SCHEMES,
+                        help="scheme fitted with --fit (default: cubic-bspline)")
+    parser.add_argument("--samples", type=int,
+                        help="resample the outline to this many points by arc length")
+    parser.add_argument("--outline", type=int,
+                        help="which outline of a file with several (default: the largest)")
+    parser.add_argument("--open", action="store_true",
+                        help="edit an open polygon (the curves end at its end points)")
+    parser.add_argument("--curves", type=_curves, default=("cubic-bspline", "four-point", "jarek"),
+                        help="comma-separated curves shown at the start (default: "
+                             "cubic-bspline,four-point,jarek; others: chaikin,corner-cutting)")
+    parser.add_argument("--levels", type=int, default=5, help="refinement level 0-9 (default: 5)")
+    parser.add_argument("--w", type=float, default=1 / 16, help="four-point tension (default 1/16)")
+    parser.add_argument("--r", type=float, default=0.25, help="corner-cutting r (default 1/4)")
+    parser.add_argument("--s", type=float, default=0.75, help="corner-cutting s (default 3/4)")
+    parser.add_argument("--t", type=float, default=0.5, help="split-tweak t (default 1/2: Jarek)")
+    parser.add_argument("--save-prefix", default="jaxsubdiv-edit",
+                        help="path prefix of the files the s key writes (default: jaxsubdiv-edit)")
+    parser.add_argument("--png", help="write a picture of the editor to this PNG and exit")
+    parser.set_defaults(run=run)
+    return parser
+
+
+def _interactive_backend() -> bool:
+    import matplotlib
+    from matplotlib.backends import BackendFilter, backend_registry
+
+    backend = matplotlib.get_backend().lower()
+    return backend not in backend_registry.list_builtin(BackendFilter.NON_INTERACTIVE)
+
+
+def run(args) -> int:
+    """Run `jaxsubdiv edit` with parsed arguments; returns the exit status."""
+    import jax
+
+    # Files and analysis in float64, like the other commands (an application may set
+    # this; the library does not).
+    jax.config.update("jax_enable_x64", True)
+    import numpy as np
+
+    import jaxsubdiv as js
+
+    from ._editor import Editor
+
+    if args.input is not None and args.shape is not None:
+        raise ValueError("give an INPUT file or --shape NAME, not both")
+    if args.fit and args.input is None and args.shape is None:
+        raise ValueError("--fit needs an INPUT file or --shape NAME to fit")
+    if not 0 <= args.levels <= 9:
+        raise ValueError(f"--levels must be from 0 to 9, got {args.levels}")
+    if args.n < 3:
+        raise ValueError(f"--n must be at least 3, got {args.n}")
+    figure = None
+    if args.png:
+        # Drawn off-screen: no pyplot window, no display, no change of backend.
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        figure = Figure(figsize=(11, 7.5))
+        FigureCanvasAgg(figure)
+    elif not _interactive_backend():
+        raise ValueError(
+            "no interactive matplotlib backend (no display?); use --png PATH to draw the "
+            "editor into a file, or set MPLBACKEND (e.g. TkAgg, QtAgg)"
+        )
+    options = dict(
+        curves=args.curves, levels=args.levels, w=args.w, r=args.r, s=args.s, t=args.t,
+        save_prefix=args.save_prefix, figure=figure,
+    )
+    if args.shape is not None:
+        outlines = [js.io.Outline(points=np.asarray(js.shapes.get(args.shape)), closed=True)]
+    elif args.input is not None:
+        outlines = js.io.read_outlines(args.input, samples=args.samples)
+    else:
+        outlines = [js.io.Outline(points=np.asarray(js.shapes.get("star")), closed=True)]
+    if args.outline is not None and not 0 <= args.outline < len(outlines):
+        raise ValueError(
+            f"--outline must be in [0, {len(outlines) - 1}] (the input has {len(outlines)} "
+            f"outlines), got {args.outline}"
+        )
+    if args.outline is not None:
+        chosen = outlines[args.outline]
+    else:
+        chosen = max(outlines, key=lambda o: float(np.prod(np.ptp(o.points, axis=0))))
+    if args.open:
+        chosen = js.io.Outline(points=chosen.points, closed=False)
+    if args.fit:
+        scheme = {
+            "cubic-bspline": lambda: js.CubicBSpline(),
+            "four-point": lambda: js.FourPoint(args.w),
+            "jarek": lambda: js.SplitTweak(args.t),
+            "chaikin": lambda: js.Chaikin(),
+            "corner-cutting": lambda: js.CornerCutting(args.r, args.s),
+        }[args.scheme]()
+        editor = Editor.from_fit(chosen, n_control=args.n, scheme=scheme, **options)
+        print(editor.status)
+    else:
+        editor = Editor(chosen.points, closed=chosen.closed, **options)
+    print(f"{len(editor.points)} control points, {editor.boundary}, level {editor.levels}")
+    if args.png:
+        editor.savefig(args.png, dpi=100)
+        print(f"wrote {args.png}")
+        return 0
+    print("keys: press h in the window for help (docs/editor.md)")
+    editor.show(block=True)
+    return 0
