@@ -7,6 +7,10 @@ faces and 1, 2, 3 levels, measured in one run:
   (`Refiner(mesh, scheme, levels)`), median wall time;
 - `apply`: re-applying the per-level tables to new positions (`jax.jit`-ed
   `refiner(v)`, warm median): the common case inside an optimization loop;
+- `apply_grouped`: the per-level tables with rows grouped by stencil width, each group a
+  dense `(rows, width)` gather-multiply-sum, then one permutation back to row order
+  (an alternative layout tried against the segment-sum; `apply_again` re-measures
+  `apply` after it to show the noise);
 - `apply_composite`: the single composite table (base -> level `levels`) with the same
   segment-sum kernel, and `apply_composite_padded`: that table as a padded
   `(rows, max width)` gather-multiply-sum, the alternative layouts;
@@ -16,10 +20,12 @@ faces and 1, 2, 3 levels, measured in one run:
   `copy_touched`: a copy of as many bytes as the per-level kernels must touch (table
   entries and each level's output); `fraction_of_* = copy_* / apply`.
 
-Writes `benchmarks/results/surfaces.json` and `.md` (or `*_smoke.*` with `--smoke`).
+Writes `surfaces.json` and `.md` (or `surfaces_smoke.*` with `--smoke`) to `--output`
+(default `benchmarks/results/`).
 """
 
 import argparse
+import importlib.metadata
 import json
 import platform
 import time
@@ -34,6 +40,13 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxsubdiv.surfaces as jss  # noqa: E402
+
+
+def _version(distribution):
+    try:
+        return importlib.metadata.version(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return None
 
 
 def torus(m, n, triangles):
@@ -76,9 +89,35 @@ def apply_padded(index, weight, x):
     return jnp.einsum("rw,rwc->rc", weight, x[index])
 
 
+def grouped(table: jss.StencilTable):
+    """The table's rows grouped by stencil width: per width a dense `(rows, width)`
+    gather and weights, and the permutation back to row order."""
+    rows, cols, weights = (np.asarray(a) for a in (table.rows, table.cols, table.weights))
+    counts = np.bincount(rows, minlength=table.num_rows)
+    starts = np.concatenate([[0], np.cumsum(counts)])[:-1]
+    groups, order = [], []
+    for width in np.unique(counts):  # a handful of widths per table
+        r = np.flatnonzero(counts == width)
+        slots = starts[r][:, None] + np.arange(width)
+        groups.append((jnp.asarray(cols[slots], jnp.int32), jnp.asarray(weights[slots])))
+        order.append(r)
+    inverse = np.empty(table.num_rows, np.int32)
+    inverse[np.concatenate(order)] = np.arange(table.num_rows)
+    return groups, jnp.asarray(inverse)
+
+
+@jax.jit
+def apply_grouped_levels(layers, x):
+    for groups, inverse in layers:
+        x = jnp.concatenate([jnp.einsum("rw,rwc->rc", w, x[i]) for i, w in groups])[inverse]
+    return x
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--smoke", action="store_true", help="a tiny case in a few seconds")
+    parser.add_argument("--output", type=Path, default=Path(__file__).parent / "results",
+                        help="directory for the JSON and Markdown results")  # fmt: skip
     args = parser.parse_args()
     if args.smoke:
         sizes, levels_list, repeats = dict(tri=(6, 8), quad=(6, 8)), (1, 2), 2
@@ -114,6 +153,11 @@ def main():
             new = jnp.asarray(points + 0.01)
             apply(refiner, new).block_until_ready()
             row["apply_s"] = median_time(lambda: apply(refiner, new), repeats)
+            layers = [grouped(t) for t in refiner.tables]
+            apply_grouped_levels(layers, new).block_until_ready()
+            row["apply_grouped_s"] = median_time(lambda: apply_grouped_levels(layers, new), repeats)
+            # Measured twice, interleaved, to see the noise of a shared machine.
+            row["apply_again_s"] = median_time(lambda: apply(refiner, new), repeats)
             apply(composite, new).block_until_ready()
             row["apply_composite_s"] = median_time(lambda: apply(composite, new), repeats)
             index, weight, width = padded(composite)
@@ -143,12 +187,12 @@ def main():
             rows.append(row)
             print(json.dumps(row))
 
-    out_dir = Path(__file__).parent / "results"
+    out_dir = args.output
     out_dir.mkdir(exist_ok=True)
     stem = "surfaces_smoke" if args.smoke else "surfaces"
     meta = dict(
         machine=platform.platform(), jax=jax.__version__, devices=str(jax.devices()),
-        trimesh=getattr(trimesh, "__version__", None), libigl=getattr(igl, "__version__", None),
+        trimesh=getattr(trimesh, "__version__", None), libigl=_version("libigl") if igl else None,
     )  # fmt: skip
     (out_dir / f"{stem}.json").write_text(json.dumps(dict(meta=meta, rows=rows), indent=2))
 
@@ -157,15 +201,16 @@ def main():
 
     lines = [
         "| scheme | faces | levels | out vertices | nnz (levels / composite) | build ms "
-        "(levels / +composite) | apply ms: levels | composite | composite padded | "
+        "(levels / +composite) | apply ms: levels (again) | levels grouped by width | composite | composite padded | "
         "copy ms: output | touched | fraction of ceiling (output / touched) | trimesh ms | libigl ms |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r['scheme']} | {r['faces']} | {r['levels']} | {r['out_vertices']} | "
             f"{r['nnz_levels']} / {r['nnz_composite']} | {ms(r['build_s'])} / "
-            f"{ms(r['build_composite_s'])} | {ms(r['apply_s'])} | {ms(r['apply_composite_s'])} | "
+            f"{ms(r['build_composite_s'])} | {ms(r['apply_s'])} ({ms(r['apply_again_s'])}) | "
+            f"{ms(r['apply_grouped_s'])} | {ms(r['apply_composite_s'])} | "
             f"{ms(r['apply_composite_padded_s'])} | {ms(r['copy_s'])} | {ms(r['copy_touched_s'])} | "
             f"{r['fraction_of_output_copy']:.3f} / {r['fraction_of_touched_copy']:.2f} | "
             f"{ms(r.get('trimesh_s'))} | {ms(r.get('libigl_s'))} |"

@@ -85,8 +85,11 @@ def counts(mesh):
         row = row[row >= 0]
         pairs += [tuple(sorted((row[i], row[(i + 1) % len(row)]))) for i in range(len(row))]
     keys, per_edge = np.unique(np.array(pairs), axis=0, return_counts=True)
+    boundary = np.unique(keys[per_edge == 1])
+    faces_at = np.bincount(mesh.faces[mesh.faces >= 0], minlength=mesh.num_vertices)
     return dict(V=mesh.num_vertices, E=len(keys), F=len(mesh.faces), H=len(pairs),
-                E_int=int((per_edge == 2).sum()), B=len(np.unique(keys[per_edge == 1])))  # fmt: skip
+                E_int=int((per_edge == 2).sum()), B=len(boundary),
+                C1=int((faces_at[boundary] == 1).sum()))  # fmt: skip
 
 
 closed_meshes = [("cube", cube), ("icosahedron", icosahedron), ("prism", prism),
@@ -115,16 +118,21 @@ def test_counts(name, make, scheme):
         c = counts(mesh)
         refined = jss.refine_mesh(mesh, scheme, 1)
         r = counts(refined)
-        nv_interior = c["V"] - c["B"]
         if isinstance(scheme, jss.Loop):
             want = dict(V=c["V"] + c["E"], E=2 * c["E"] + 3 * c["F"], F=4 * c["F"])
         elif isinstance(scheme, jss.CatmullClark):
             want = dict(V=c["V"] + c["E"] + c["F"], E=2 * c["E"] + c["H"], F=c["H"])
-        else:  # Doo-Sabin: a vertex per corner; F-, E- and V-faces
-            want = dict(V=c["H"], E=c["H"] + 2 * c["E_int"], F=c["F"] + c["E_int"] + nv_interior)
+        else:
+            # Doo-Sabin: a vertex per face corner, two per boundary edge (B of them, one
+            # boundary loop per hole), one per kept corner (C1: boundary vertices in one
+            # face). Edges: F-face edges, two more per smooth E-face, three per boundary
+            # E-face, one closing edge per boundary V-face (two at a corner). Faces: F-,
+            # E- (every edge) and V-faces (every vertex).
+            want = dict(V=c["H"] + 2 * c["B"] + c["C1"],
+                        E=c["H"] + 2 * c["E_int"] + 4 * c["B"] + c["C1"],
+                        F=c["F"] + c["E"] + c["V"])  # fmt: skip
         assert {k: r[k] for k in want} == want
-        if name in dict(closed_meshes):
-            assert r["V"] - r["E"] + r["F"] == c["V"] - c["E"] + c["F"]  # Euler characteristic
+        assert r["V"] - r["E"] + r["F"] == c["V"] - c["E"] + c["F"]  # Euler characteristic
         mesh = refined
 
 
@@ -294,6 +302,9 @@ tagged_meshes = [
      dict(creases=[[i * 5 + 2, (i + 1) * 5 + 2] for i in range(4)], corners=[6])),
     ("crease_loop", lambda: grid(4, 4, triangles=True), jss.Loop(),
      dict(creases=[[i * 5 + 2, (i + 1) * 5 + 2] for i in range(4)], corners=[6])),
+    # A crease from the boundary ending inside: a dart at vertex 12.
+    ("dart_cc", lambda: grid(4, 4), jss.CatmullClark(), dict(creases=[[2, 7], [7, 12]])),
+    ("dart_loop", lambda: grid(4, 4, triangles=True), jss.Loop(), dict(creases=[[2, 7], [7, 12]])),
 ]  # fmt: skip
 
 
@@ -342,6 +353,195 @@ def test_limit_normals_perpendicular_to_refined_surface(scheme):
         assert np.abs(cosines).max() < 0.03
 
 
+# ------------------------------------------- normals at boundaries, creases, corners
+
+
+def clamped_net(P):
+    """The control net extended by one ghost row and column on each side, `2 P_0 - P_1`:
+    with it the uniform bicubic B-spline has the clamped cubic B-spline curve as its
+    boundary (the ghost makes the end vertex rule `(G + 6 P_0 + P_1) / 8` keep `P_0`)."""
+    for axis in (0, 1):
+        first = 2 * np.take(P, [0], axis) - np.take(P, [1], axis)
+        last = 2 * np.take(P, [-1], axis) - np.take(P, [-2], axis)
+        P = np.concatenate([first, P, last], axis)
+    return P
+
+
+def test_catmull_clark_open_grid_normals_match_bspline():
+    """On an open quad grid Catmull-Clark is the tensor product of the clamped cubic
+    B-spline rule, so its limit is the uniform bicubic B-spline of the ghost-extended
+    net (scipy): normals at the boundary vertices (sectors of 2 quads, exact
+    eigenvectors) and at the corners (crease tangents) equal the spline's."""
+    m, n = 5, 4
+    v, f = grid(m, n, seed=8)
+    normals = np.asarray(jss.limit_normals(jss.Mesh(v, f), jss.CatmullClark()))
+    net = clamped_net(v.reshape(m + 1, n + 1, 3))
+    basis = scipy.interpolate.BSpline.basis_element(np.arange(-2.0, 3.0), extrapolate=False)
+    slope = basis.derivative()
+    i, j = np.divmod(np.arange(len(v)), n + 1)
+    shift = lambda t, count: t[:, None] - (np.arange(count) - 1)[None, :]  # ghost index -1
+    Bu, Bv = np.nan_to_num(basis(shift(i, m + 3))), np.nan_to_num(basis(shift(j, n + 3)))
+    Du, Dv = np.nan_to_num(slope(shift(i, m + 3))), np.nan_to_num(slope(shift(j, n + 3)))
+    np.testing.assert_allclose(jss.limit_positions(jss.Mesh(v, f), jss.CatmullClark()),
+                               np.einsum("ka,kb,abc->kc", Bu, Bv, net), atol=1e-12)  # fmt: skip
+    want = np.cross(np.einsum("ka,kb,abc->kc", Du, Bv, net), np.einsum("ka,kb,abc->kc", Bu, Dv, net))
+    want /= np.linalg.norm(want, axis=1, keepdims=True)
+    np.testing.assert_allclose(normals, want, atol=1e-12)
+
+
+def half_fan(k, quads, seed=0):
+    """A boundary vertex (index 0) in `k` triangles or quads spanning a half disk."""
+    t = np.pi * np.arange(k + 1) / k
+    rng = np.random.default_rng(seed)
+    ring = np.stack([np.cos(t), np.sin(t), 0.3 * rng.normal(size=k + 1)], 1)
+    if not quads:
+        return np.concatenate([[[0, 0, 0.0]], ring]), np.array([[0, 1 + i, 2 + i] for i in range(k)])
+    s = t[:-1] + np.pi / (2 * k)
+    mid = np.stack([1.8 * np.cos(s), 1.8 * np.sin(s), 0.3 * rng.normal(size=k)], 1)
+    faces = np.array([[0, 1 + i, 2 + k + i, 2 + i] for i in range(k)])
+    return np.concatenate([[[0, 0, 0.0]], ring, mid]), faces
+
+
+def face_normal_sum(points, faces, vertex):
+    """Normalized sum of the corner cross products at `vertex` (plain Python)."""
+    total = np.zeros(3)
+    for row in faces:
+        row = row[row >= 0].tolist()
+        if vertex in row:
+            i = row.index(vertex)
+            a, b = points[row[i - 1]], points[row[(i + 1) % len(row)]]
+            total += np.cross(b - points[vertex], a - points[vertex])
+    return total / np.linalg.norm(total)
+
+
+def angle(a, b):
+    return np.degrees(np.arccos(np.clip(np.dot(a, b) / np.linalg.norm(a) / np.linalg.norm(b), -1, 1)))
+
+
+@pytest.mark.parametrize("scheme, k", [(jss.Loop(), 3), (jss.Loop(), 4), (jss.CatmullClark(), 3)])
+def test_boundary_normals_agree_with_deep_refinement(scheme, k):
+    """At a boundary vertex of `k` faces the normal of the refined limit surface's
+    face fan around the vertex converges to the stencil normal; the Aitken-extrapolated
+    estimate from levels 2, 4, 6 is within 0.05 degrees, while the base-level estimate
+    (the old approximation) is off by more than a degree."""
+    v, f = half_fan(k, quads=isinstance(scheme, jss.CatmullClark), seed=1)
+    mesh = jss.Mesh(v, f)
+    normal = np.asarray(jss.limit_normals(mesh, scheme))[0]
+    estimates = []
+    for levels in (0, 2, 4, 6):
+        fine = jss.refine_mesh(mesh, scheme, levels)
+        estimates.append(face_normal_sum(np.asarray(jss.limit_positions(fine, scheme)), fine.faces, 0))
+    x2, x4, x6 = estimates[1:]
+    extrapolated = x6 - (x6 - x4) ** 2 / ((x6 - x4) - (x4 - x2))
+    assert angle(extrapolated, normal) < 0.05
+    assert angle(estimates[0], normal) > 1.0
+    assert angle(x6, normal) < angle(x4, normal) < angle(x2, normal)
+
+
+@pytest.mark.parametrize("scheme, k", [(jss.Loop(), 2), (jss.Loop(), 4), (jss.Loop(), 5),
+                                      (jss.CatmullClark(), 3)])  # fmt: skip
+def test_exact_sector_normals_are_eigenvectors(scheme, k):
+    """The sector tangent stencils are left eigenvectors of the actual refinement:
+    refining first leaves the boundary normals unchanged (the approximation does not
+    have this property), and a mirror-symmetric fan has its normal in the mirror plane
+    with the orientation of the faces."""
+    for v, f in [half_fan(k, isinstance(scheme, jss.CatmullClark), seed=k)]:
+        mesh = jss.Mesh(v, f)
+        normal = np.asarray(jss.limit_normals(mesh, scheme))[0]
+        again = np.asarray(jss.limit_normals(jss.refine_mesh(mesh, scheme, 2), scheme))[0]
+        np.testing.assert_allclose(again, normal, atol=1e-12)
+        # Mirror x -> -x maps the fan to itself when the heights are symmetric.
+        k = len(f)
+        sym = v.copy()
+        ring = np.arange(1, k + 2)
+        sym[ring, 2] = (v[ring, 2] + v[ring[::-1], 2]) / 2
+        if len(v) > k + 2:
+            mid = np.arange(k + 2, 2 * k + 2)
+            sym[mid, 2] = (v[mid, 2] + v[mid[::-1], 2]) / 2
+        n = np.asarray(jss.limit_normals(jss.Mesh(sym, f), scheme))[0]
+        assert abs(n[0]) < 1e-14 and n[2] > 0
+        flat = np.asarray(jss.limit_normals(jss.Mesh(sym * [1, 1, 0], f), scheme))[0]
+        np.testing.assert_allclose(flat, [0, 0, 1], atol=1e-14)
+
+
+@pytest.mark.parametrize("scheme, triangles", [(jss.Loop(), True), (jss.CatmullClark(), False)])
+def test_dart_normals(scheme, triangles):
+    """At a dart (a crease ending inside) the eigenvector normal is unchanged by
+    refining first, and the face-fan normal of the deeply refined limit surface
+    converges to it (levels 0, 2, 4, 6)."""
+    v, f = grid(4, 4, seed=11, triangles=triangles)
+    dart = 12
+    mesh = jss.Mesh(v, f, creases=[[2, 7], [7, 12]])
+    normal = np.asarray(jss.limit_normals(mesh, scheme))[dart]
+    again = np.asarray(jss.limit_normals(jss.refine_mesh(mesh, scheme, 2), scheme))[dart]
+    np.testing.assert_allclose(again, normal, atol=1e-12)
+    errors = []
+    for levels in (0, 2, 4, 6):
+        fine = jss.refine_mesh(mesh, scheme, levels)
+        estimate = face_normal_sum(np.asarray(jss.limit_positions(fine, scheme)), fine.faces, dart)
+        errors.append(angle(estimate, normal))
+    assert errors == sorted(errors, reverse=True) and errors[-1] < 0.25 * errors[0]
+
+
+@pytest.mark.parametrize("scheme, triangles", [(jss.Loop(), True), (jss.CatmullClark(), False)])
+def test_crease_normals_are_one_sided_boundary_normals(scheme, triangles):
+    """A crease splits the surface into two sides that each refine like an open mesh:
+    each sector normal at a crease vertex equals the boundary normal of the mesh cut
+    along the crease, and `normals` returns their normalized sum."""
+    m = 4
+    v, f = grid(m, m, seed=9, triangles=triangles)
+    crease = np.flatnonzero(v[:, 1] == 2)
+    mesh = jss.Mesh(v, f, creases=np.stack([crease[:-1], crease[1:]], 1))
+    limit = jss.Limit(mesh, scheme)
+    sector_normals = np.cross(limit.sector_u(v), limit.sector_v(v))
+    normals = np.asarray(limit.normals(v))
+    centroid_y = v[np.where(f >= 0, f, 0), 1].mean(axis=1)
+    halves = [jss.Limit(jss.Mesh(v, f[side]), scheme) for side in (centroid_y < 2, centroid_y > 2)]
+    for vertex in crease[1:-1]:  # the ends are corners (three sharp edges)
+        rows = np.flatnonzero(np.asarray(limit.sector_vertex) == vertex)
+        assert len(rows) == 2 and np.all(np.asarray(limit.sector_kind)[rows] == 0)
+        one_sided = [np.asarray(h.normals(v))[vertex] for h in halves]
+        got = sector_normals[rows] / np.linalg.norm(sector_normals[rows], axis=1, keepdims=True)
+        d = np.abs(got[:, None] - np.array(one_sided)[None]).max(axis=-1)
+        assert d.min(axis=1).max() < 1e-12 and d.min(axis=0).max() < 1e-12
+        both = np.sum(one_sided, axis=0)
+        np.testing.assert_allclose(normals[vertex], both / np.linalg.norm(both), atol=1e-12)
+
+
+def test_normal_kinds_and_gradients_on_tagged_open_mesh():
+    """Sector kinds follow the eigenvalue condition (Loop: 2-5 triangles; Catmull-Clark:
+    2-3 quads; corners use the crease tangents), and normals have finite-difference
+    gradients through every kind of sector."""
+    kinds = {}
+    for scheme, quads in ((jss.Loop(), False), (jss.CatmullClark(), True)):
+        for k in range(1, 8):
+            v, f = half_fan(k, quads)
+            corners = [] if k > 1 else [0]
+            limit = jss.Limit(jss.Mesh(v, f, corners=corners), scheme)
+            kinds[type(scheme).__name__, k] = int(np.asarray(limit.sector_kind)[np.asarray(limit.sector_vertex) == 0][0])
+    assert [kinds["Loop", k] for k in range(1, 8)] == [1, 0, 0, 0, 0, 2, 2]
+    assert [kinds["CatmullClark", k] for k in range(1, 8)] == [1, 0, 0, 2, 2, 2, 2]
+
+    v, f = grid(3, 3, seed=10, triangles=True)
+    # Tagged corners on no crease or on one crease: approximate, but unit normals.
+    for tags in [dict(corners=[5]), dict(creases=[[5, 6]], corners=[5])]:
+        n = np.asarray(jss.limit_normals(jss.Mesh(v, f, **tags), jss.Loop()))
+        np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1, atol=1e-12)
+    mesh = jss.Mesh(v, f, creases=[[4, 5], [5, 6], [6, 7]], corners=[1])
+    limit = jss.Limit(mesh, jss.Loop())
+    weights = np.random.default_rng(1).normal(size=(len(v), 3))
+    loss = lambda x: jnp.sum(limit.normals(x) * weights)
+    x = jnp.asarray(v)
+    grad = np.asarray(jax.grad(loss)(x))
+    eps = 1e-6
+    fd = np.zeros_like(v)
+    for idx in np.ndindex(*v.shape):
+        e = np.zeros_like(v)
+        e[idx] = eps
+        fd[idx] = (loss(x + e) - loss(x - e)) / (2 * eps)
+    np.testing.assert_allclose(grad, fd, rtol=1e-5, atol=1e-7)
+
+
 # ---------------------------------------------------------- boundaries and creases
 
 
@@ -384,6 +584,90 @@ def test_tagged_corner_is_kept():
     refined = jss.refine_mesh(jss.Mesh(v, f, corners=[0, 7]), jss.CatmullClark(), 3)
     np.testing.assert_allclose(refined.vertices[jnp.array([0, 7])], v[[0, 7]], atol=0)
     assert abs(float(refined.vertices[1, 0])) < 1  # others move
+
+
+# ------------------------------------------------------ Doo-Sabin boundaries
+
+
+def clamped_chaikin(n, levels, creases=()):
+    """The (refined, n) matrix of the clamped Chaikin curve rule, from the curve code."""
+    eye = np.eye(n)
+    return np.asarray(js.refine(eye, js.Chaikin(), levels, boundary="clamped", creases=creases))
+
+
+def match_by_xy(points, reference):
+    """Index of the reference point with the same (x, y) for every point (one-to-one)."""
+    d = np.linalg.norm(points[:, None, :2] - reference[None, :, :2], axis=-1)
+    j = d.argmin(axis=1)
+    assert d.min(axis=1).max() < 1e-12 and len(np.unique(j)) == len(points) == len(reference)
+    return j
+
+
+@pytest.mark.parametrize("levels", [1, 2, 3])
+@pytest.mark.parametrize("crease", [False, True])
+def test_doo_sabin_open_grid_is_clamped_tensor_product(levels, crease):
+    """An open grid (its corners in one face each, so kept) refines to the tensor
+    product of the clamped Chaikin rule in both directions, built from the curve code;
+    a crease along the row y = 2 clamps the y direction there too."""
+    m, n = 4, 4
+    v, f = grid(m, n, seed=6)
+    tags = dict(creases=[[i * (n + 1) + 2, (i + 1) * (n + 1) + 2] for i in range(m)]) if crease else {}
+    refined = np.asarray(jss.refine_mesh(jss.Mesh(v, f, **tags), jss.DooSabin(), levels).vertices)
+    matrix = np.kron(clamped_chaikin(m + 1, levels), clamped_chaikin(n + 1, levels, [2] if crease else ()))
+    reference = matrix @ v
+    j = match_by_xy(refined, reference)
+    np.testing.assert_allclose(refined[:, 2], reference[j, 2], atol=1e-13)
+
+
+def boundary_loop(faces):
+    """The vertex loop of the single boundary of a mesh, in face orientation (Python)."""
+    directed = set()
+    for row in faces:
+        row = row[row >= 0].tolist()
+        directed |= {(row[i], row[(i + 1) % len(row)]) for i in range(len(row))}
+    succ = {a: b for a, b in directed if (b, a) not in directed}
+    loop = [min(succ)]
+    while succ[loop[-1]] != loop[0]:
+        loop.append(succ[loop[-1]])
+    return np.array(loop)
+
+
+@pytest.mark.parametrize("corner", [None, 3])
+def test_doo_sabin_boundary_is_chaikin_curve(corner):
+    """The boundary polygon of the refined fan is the closed Chaikin curve of the base
+    boundary polygon (with a crease at a tagged corner), from `jaxsubdiv.refine`."""
+    v, f = hexagon_fan(seed=7)
+    tags = {} if corner is None else dict(corners=[corner])
+    loop = boundary_loop(np.asarray(f))
+    creases = () if corner is None else (int(np.flatnonzero(loop == corner)[0]),)
+    for levels in (1, 2, 3):
+        fine = jss.refine_mesh(jss.Mesh(v, f, **tags), jss.DooSabin(), levels)
+        got = np.asarray(fine.vertices)[boundary_loop(fine.faces)]
+        want = np.asarray(js.refine(v[loop], js.Chaikin(), levels, boundary="closed", creases=creases))
+        assert got.shape == want.shape
+        errors = [np.abs(np.roll(got, s, axis=0) - want).max() for s in range(len(got))]
+        assert min(errors) < 1e-13
+
+
+def test_doo_sabin_crease_on_closed_mesh():
+    """A crease loop around the cube (and a tagged corner on it) refines as the closed
+    Chaikin polygon (clamped at the corner); the refined mesh stays closed (Euler
+    characteristic 2) and the crease keeps 4 * 2^levels edges."""
+    v, f = cube()
+    loop = [0, 1, 3, 2]
+    creases = [[loop[i], loop[(i + 1) % 4]] for i in range(4)]
+    for corners, crease_points in [((), ()), ((0,), (0,))]:
+        mesh = jss.Mesh(v, f, creases=creases, corners=corners)
+        for levels in (1, 2):
+            fine = jss.refine_mesh(mesh, jss.DooSabin(), levels)
+            c = counts(fine)
+            assert c["B"] == 0 and c["V"] - c["E"] + c["F"] == 2
+            want = np.asarray(js.refine(v[loop], js.Chaikin(), levels, boundary="closed", creases=crease_points))
+            assert len(fine.creases) == len(want)
+            points = np.asarray(fine.vertices)
+            on = np.unique(fine.creases)
+            d = np.linalg.norm(points[on][:, None] - want[None], axis=-1)
+            assert d.min(axis=1).max() < 1e-13 and d.min(axis=0).max() < 1e-13
 
 
 # ------------------------------------------------------------ trimesh's Loop
@@ -517,7 +801,7 @@ def test_errors():
         jss.Refiner(jss.Mesh(np.zeros((5, 3)), bowtie), jss.Loop())
     with pytest.raises(ValueError, match="triangle mesh"):
         jss.Refiner(jss.Mesh(v, f), jss.Loop())
-    with pytest.raises(ValueError, match="no crease or corner rules"):
+    with pytest.raises(ValueError, match="`corners`: vertex 0 is on 0 sharp"):
         jss.Refiner(jss.Mesh(v, f, corners=[0]), jss.DooSabin())
     with pytest.raises(ValueError, match="no limit stencils"):
         jss.limit_positions(jss.Mesh(v, f), jss.DooSabin())

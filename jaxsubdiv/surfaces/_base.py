@@ -7,7 +7,7 @@ import equinox as eqx
 import numpy as np
 
 from ._stencil import Sparse
-from ._topology import CREASE, SMOOTH, Topology
+from ._topology import CORNER, CREASE, SMOOTH, Topology
 
 
 @dataclasses.dataclass(frozen=True)
@@ -20,14 +20,45 @@ class Level:
     corners: np.ndarray  # tagged corner vertices of the refined mesh
 
 
+# Kinds of sector normals (see `sector_stencils`).
+EXACT, CORNER_TANGENTS, APPROXIMATE = 0, 1, 2
+
+
 @dataclasses.dataclass(frozen=True)
 class LimitStencils:
-    """Limit position and tangent stencils, one row per base vertex."""
+    """Limit position and tangent stencils, one row per base vertex, and per-sector
+    tangent stencils at vertices on sharp edges."""
 
     position: Sparse
-    tangent_u: Sparse  # zero rows at non-smooth vertices
+    tangent_u: Sparse  # exact tangents; zero rows where there is no single tangent plane
     tangent_v: Sparse
-    smooth: np.ndarray  # (V,) bool: rows where the tangents are exact
+    smooth: np.ndarray  # (V,) bool: vertices whose normal is tangent_u x tangent_v
+    sector_u: Sparse  # (S, V): two tangents per sector of a vertex on sharp edges
+    sector_v: Sparse
+    sector_vertex: np.ndarray  # (S,) the vertex of each sector
+    sector_kind: np.ndarray  # (S,) EXACT, CORNER_TANGENTS or APPROXIMATE
+    corner_points: Sparse  # (3T, V) limit points (prev, vertex, next) of face corners
+    corner_sector: np.ndarray  # (T,) the sector of each such face corner
+
+    def compose(self, keep: np.ndarray, first: Sparse) -> "LimitStencils":
+        """These stencils (on a refined mesh) for the vertices `keep` of the coarse mesh
+        it came from, composed with the refinement stencil `first`."""
+        sectors = np.flatnonzero(np.isin(self.sector_vertex, keep))
+        remap = np.full(self.position.shape[0], -1, np.int64)
+        remap[keep] = np.arange(len(keep))
+        corners = np.flatnonzero(np.isin(self.corner_sector, sectors))
+        new_sector = np.full(len(self.sector_vertex), -1, np.int64)
+        new_sector[sectors] = np.arange(len(sectors))
+        points = np.stack([3 * corners, 3 * corners + 1, 3 * corners + 2], 1).reshape(-1)
+        return LimitStencils(
+            *(s.take_rows(keep) @ first for s in (self.position, self.tangent_u, self.tangent_v)),
+            self.smooth[keep],
+            *(s.take_rows(sectors) @ first for s in (self.sector_u, self.sector_v)),
+            remap[self.sector_vertex[sectors]],
+            self.sector_kind[sectors],
+            self.corner_points.take_rows(points) @ first,
+            new_sector[self.corner_sector[corners]],
+        )
 
 
 class AbstractSurfaceScheme(eqx.Module):
@@ -116,3 +147,241 @@ def ring_positions(topo: Topology) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     keep = topo.vertex_type[v] == SMOOTH
     rank = np.arange(len(order)) - start[v]
     return order[keep], rank[keep], topo.valence[v[keep]].astype(np.float64)
+
+
+def symmetric_subspace(perm: np.ndarray) -> np.ndarray:
+    """Orthonormal basis (columns) of the vectors `x` with `x[perm] == x`, for an
+    involution `perm`."""
+    n = len(perm)
+    pairs = np.unique(np.sort(np.stack([np.arange(n), perm], 1), axis=1), axis=0)
+    basis = np.zeros((n, len(pairs)))
+    basis[pairs[:, 0], np.arange(len(pairs))] = 1.0
+    basis[pairs[:, 1], np.arange(len(pairs))] = 1.0
+    return basis / np.linalg.norm(basis, axis=0)
+
+
+def antisymmetric_subspace(perm: np.ndarray) -> np.ndarray:
+    """Orthonormal basis (columns) of the vectors `x` with `x[perm] == -x`."""
+    n = len(perm)
+    i = np.flatnonzero(np.arange(n) < perm)
+    basis = np.zeros((n, len(i)))
+    basis[i, np.arange(len(i))] = 1 / np.sqrt(2)
+    basis[perm[i], np.arange(len(i))] = -1 / np.sqrt(2)
+    return basis
+
+
+def dominant(matrix: np.ndarray, basis: np.ndarray, skip: int = 0) -> tuple[float, np.ndarray]:
+    """The `skip`-th largest eigenvalue of `matrix.T` on the invariant subspace spanned
+    by `basis`, and its (left) eigenvector."""
+    values, vectors = np.linalg.eig(basis.T @ matrix.T @ basis)
+    order = np.argsort(-values.real)
+    return float(values[order[skip]].real), basis @ vectors[:, order[skip]].real
+
+
+def dart_masks(matrix: np.ndarray, perm: np.ndarray):
+    r"""Limit position and tangent masks at a dart (an interior vertex on one crease
+    edge), and whether the tangents span the limit tangent plane.
+
+    `matrix` is the local subdivision matrix of the dart's ring (the smooth vertex
+    rule, the crease edge's midpoint, the smooth edge rule elsewhere), `perm` the ring's
+    mirror symmetry through the crease edge, ring position 1 on the crease edge and 2
+    the next counter-clockwise. Position: the left eigenvector of eigenvalue 1;
+    tangents: the dominant left eigenvectors below 1 in the symmetric subspace (along
+    the crease edge) and in the antisymmetric one (across it), valid when their
+    eigenvalues are strictly larger than all the others (Reif 1995).
+    """
+    _, position = dominant(matrix, symmetric_subspace(perm))
+    lam_s, along = dominant(matrix, symmetric_subspace(perm), skip=1)
+    lam_a, across = dominant(matrix, antisymmetric_subspace(perm))
+    rest = list(np.linalg.eigvals(matrix))
+    for target in (1.0, lam_s, lam_a):
+        rest.pop(int(np.argmin(np.abs(np.array(rest) - target))))
+    exact = max((abs(x) for x in rest), default=0.0) < min(lam_s, lam_a) - 1e-9
+    along = along / np.abs(along).max() * np.sign(along[1] - along[0])
+    across = across / np.abs(across).max() * np.sign(across[2])
+    return position / position.sum(), along, across, exact
+
+
+def cross_tangent(matrix: np.ndarray, perm: np.ndarray, interior: np.ndarray):
+    r"""The cross-boundary limit tangent mask of a boundary sector, and whether the
+    limit surface has a tangent plane there.
+
+    `matrix` is the sector's local subdivision matrix (ring to refined ring), `perm`
+    the ring's mirror symmetry (which the matrix commutes with) and `interior` the
+    ring positions off the sharp edges. The tangent along the sharp edges is the
+    antisymmetric left eigenvector $p_0 - p_k$ (eigenvalue $\frac12$, the cubic
+    B-spline curve's); the cross tangent is the dominant symmetric left eigenvector
+    below 1, found in the symmetric subspace. The tangent plane they span is the limit
+    tangent plane if these two eigenvalues are strictly larger in modulus than all the
+    others (Reif 1995; Zorin 2000), which this checks numerically. Sign: pointing into
+    the sector (positive total weight on the interior ring points).
+    """
+    basis = symmetric_subspace(perm)
+    values, vectors = np.linalg.eig(basis.T @ matrix.T @ basis)
+    order = np.argsort(-values.real)
+    lam = float(values[order[1]].real) if len(order) > 1 else 0.0
+    mask = basis @ vectors[:, order[1]].real if len(order) > 1 else np.zeros(len(perm))
+    rest = list(np.linalg.eigvals(matrix))
+    for target in (1.0, 0.5, lam):
+        rest.pop(int(np.argmin(np.abs(np.array(rest) - target))))
+    largest = max((abs(x) for x in rest), default=0.0)
+    exact = bool(len(interior)) and largest < min(0.5, lam) - 1e-9
+    mask = mask / np.abs(mask).max()
+    if mask[interior].sum() < 0:
+        mask = -mask
+    return mask, exact
+
+
+def sector_stencils(topo: Topology, position: Sparse, ring, local):
+    r"""Per-sector tangent stencils at the vertices on sharp edges (boundary or crease).
+
+    For every sector (a fan of faces between two sharp edges, see
+    `Topology.sectors`) of `k` faces:
+
+    - at a crease or boundary vertex (not a corner): the tangent along the sharp
+      edges $p_0 - p_k$ and the cross tangent from the eigenvectors of the sector's
+      local subdivision matrix (`local(k) -> (matrix, perm)` on the ring
+      `ring(topo, half_edges) -> (n, m)` columns: the vertex, then $p_0, \dots, p_k$
+      along the sector's edges, then scheme-specific points), kind `EXACT`, or kind
+      `APPROXIMATE` with zero rows where that sector has no tangent plane;
+    - at a corner: the two sharp-edge tangents $p_0 - v$ and $p_k - v$ (the limit
+      tangents of the crease curves at a clamped end), kind `CORNER_TANGENTS`;
+      `APPROXIMATE` if the sector starts and ends on the same sharp edge;
+    - tagged corners on no sharp edge: the whole ring as one `APPROXIMATE` sector.
+
+    Also the face corners (previous, vertex, next; as rows of limit positions) of
+    the non-`EXACT` sectors, for the orientation and the approximate normals.
+    """
+    V = topo.num_vertices
+    order, start = topo.sectors()
+    counts = np.diff(start)
+    keep = topo.vertex_type[topo.origin[order[start[:-1]]]] != SMOOTH  # not darts
+    order, counts = order[np.repeat(keep, counts)], counts[keep]
+    start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    S = len(counts)
+    first, last = order[start[:-1]], order[start[1:] - 1]
+    vertex = topo.origin[first]
+    # A corner on a single sharp edge has one crease tangent: approximate it.
+    corner = (topo.vertex_type[vertex] == CORNER) & (topo.edge[first] != topo.edge[topo.prev[last]])
+    kind = np.where(corner, CORNER_TANGENTS, APPROXIMATE).astype(np.int8)
+    rows_u, cols_u, w_u, rows_v, cols_v, w_v = ([] for _ in range(6))
+    for k in np.unique(counts):  # one vectorized pass per distinct sector size
+        sel = np.flatnonzero(counts == k)
+        half = order[start[sel][:, None] + np.arange(k)]  # (n, k) in ring order
+        cols = ring(topo, half)  # (n, m): vertex, p_0..p_k, ...
+        p0, pk, v = cols[:, 1], cols[:, k + 1], cols[:, 0]
+        c = corner[sel]
+        # Corners: the two crease tangents.
+        rows_u += [sel[c], sel[c]]
+        cols_u += [p0[c], v[c]]
+        w_u += [np.ones(c.sum()), -np.ones(c.sum())]
+        rows_v += [sel[c], sel[c]]
+        cols_v += [pk[c], v[c]]
+        w_v += [np.ones(c.sum()), -np.ones(c.sum())]
+        matrix, perm = local(int(k))
+        interior = np.setdiff1d(np.arange(1, matrix.shape[0]), [1, k + 1])
+        mask, exact = cross_tangent(matrix, perm, interior)
+        side = topo.vertex_type[vertex[sel]] != CORNER  # boundary or crease sectors
+        if exact and np.any(side):
+            s = sel[side]
+            kind[s] = EXACT
+            rows_u += [s, s]
+            cols_u += [p0[side], pk[side]]
+            w_u += [np.ones(len(s)), -np.ones(len(s))]
+            rows_v.append(np.repeat(s, cols.shape[1]))
+            cols_v.append(cols[side].reshape(-1))
+            w_v.append(np.tile(mask, len(s)))
+    empty = [np.zeros(0, np.int64)]
+    sector_u = Sparse.build(np.concatenate(rows_u + empty), np.concatenate(cols_u + empty),
+                            np.concatenate(w_u + empty), (S, V))  # fmt: skip
+    sector_v = Sparse.build(np.concatenate(rows_v + empty), np.concatenate(cols_v + empty),
+                            np.concatenate(w_v + empty), (S, V))  # fmt: skip
+    # Tagged corners on no sharp edge: their whole ring is one approximate sector.
+    ring_order, ring_start = topo.ring()
+    ring_counts = np.diff(ring_start)
+    lone = np.flatnonzero((topo.vertex_type != SMOOTH) & (ring_counts > 0))
+    lone = lone[topo.num_sharp()[lone] == 0]
+    order = np.concatenate([order, ring_order[np.isin(topo.origin[ring_order], lone)]])
+    counts = np.concatenate([counts, ring_counts[lone]])
+    vertex = np.concatenate([vertex, lone])
+    kind = np.concatenate([kind, np.full(len(lone), APPROXIMATE, np.int8)])
+    S = len(counts)
+    sector_u = Sparse(sector_u.rows, sector_u.cols, sector_u.weights, (S, V))
+    sector_v = Sparse(sector_v.rows, sector_v.cols, sector_v.weights, (S, V))
+    # Face corners of the sectors that are not exact.
+    sector_of = np.repeat(np.arange(S), counts)
+    h = order[kind[sector_of] != EXACT]
+    corner_sector = sector_of[kind[sector_of] != EXACT]
+    ids = np.stack([topo.origin[topo.prev[h]], topo.origin[h], topo.origin[topo.next[h]]], 1)
+    corner_points = position.take_rows(ids.reshape(-1))
+    return sector_u, sector_v, vertex, kind, corner_points, corner_sector
+
+
+def dart_stencils(topo: Topology, position: Sparse, tangent_u: Sparse, tangent_v: Sparse,
+                  ring, dart) -> tuple[Sparse, Sparse, Sparse]:  # fmt: skip
+    """Replace the smooth-formula rows of darts by the eigenvector masks of
+    `dart_masks` (`dart(n) -> (matrix, perm)` on the ring `ring` without its repeated
+    closing neighbor), for the valences where they are exact."""
+    V = topo.num_vertices
+    order, start = topo.sectors()
+    counts = np.diff(start)
+    first = order[start[:-1]]
+    darts = np.flatnonzero(topo.vertex_type[topo.origin[first]] == SMOOTH)
+    rows, cols, weights = [[], [], []], [[], [], []], [[], [], []]
+    done = []
+    for n in np.unique(counts[darts]):  # one pass per dart valence
+        sel = darts[counts[darts] == n]
+        half = order[start[sel][:, None] + np.arange(n)]
+        ring_cols = np.delete(ring(topo, half), n + 1, axis=1)  # p_n = p_0 again
+        *masks, exact = dart_masks(*dart(int(n)))
+        if not exact:
+            continue
+        v = topo.origin[half[:, 0]]
+        done.append(v)
+        for t, mask in enumerate(masks):
+            rows[t].append(np.repeat(v, ring_cols.shape[1]))
+            cols[t].append(ring_cols.reshape(-1))
+            weights[t].append(np.tile(mask, len(v)))
+    if not done:
+        return position, tangent_u, tangent_v
+    replaced = np.zeros(V, bool)
+    replaced[np.concatenate(done)] = True
+
+    def replace(table: Sparse, t: int) -> Sparse:
+        keep = ~replaced[table.rows]
+        return Sparse.build(
+            np.concatenate([table.rows[keep], *rows[t]]),
+            np.concatenate([table.cols[keep], *cols[t]]),
+            np.concatenate([table.weights[keep], *weights[t]]),
+            table.shape,
+        )
+
+    return replace(position, 0), replace(tangent_u, 1), replace(tangent_v, 2)
+
+
+def limit_stencils(topo: Topology, position: Sparse, tangent_u: Sparse, tangent_v: Sparse,
+                   ring, local, dart=None) -> LimitStencils:  # fmt: skip
+    """[`LimitStencils`][] from the smooth-vertex stencils, the dart stencils
+    (`dart_stencils`, if `dart` is given) and the sector stencils (`sector_stencils`);
+    a boundary vertex with one exact sector also gets its two tangents as its
+    `tangent_u`, `tangent_v` rows."""
+    V = topo.num_vertices
+    if dart is not None:
+        position, tangent_u, tangent_v = dart_stencils(topo, position, tangent_u, tangent_v, ring, dart)
+    su, sv, vertex, kind, corner_points, corner_sector = sector_stencils(topo, position, ring, local)
+    per_vertex = np.bincount(vertex, minlength=V)
+    single = np.flatnonzero((kind == EXACT) & (per_vertex[vertex] == 1))
+
+    def merge(table: Sparse, sector_table: Sparse) -> Sparse:
+        rows = sector_table.take_rows(single)
+        return Sparse.build(
+            np.concatenate([table.rows, vertex[single][rows.rows]]),
+            np.concatenate([table.cols, rows.cols]),
+            np.concatenate([table.weights, rows.weights]),
+            table.shape,
+        )
+
+    return LimitStencils(
+        position, merge(tangent_u, su), merge(tangent_v, sv), topo.vertex_type == SMOOTH,
+        su, sv, vertex, kind, corner_points, corner_sector,
+    )  # fmt: skip

@@ -5,6 +5,7 @@ from ._base import (
     Level,
     LimitStencils,
     edge_end_rule,
+    limit_stencils,
     refined_tags,
     ring_positions,
     vertex_rule,
@@ -18,6 +19,61 @@ def _face_points(topo: Topology) -> Sparse:
     V, F = topo.num_vertices, topo.num_faces
     centroid = Sparse.build(topo.face, topo.origin, 1 / topo.sizes[topo.face], (F, V))
     return Sparse.stack([Sparse.identity(V), centroid])
+
+
+def cc_sector_ring(topo: Topology, half: np.ndarray) -> np.ndarray:
+    r"""`(n, 2k + 2)` ring columns of sectors of `k` quads: the vertex, its edge
+    neighbors $e_0, \dots, e_k$ counter-clockwise ($e_0$, $e_k$ on the sharp edges),
+    then the diagonal vertices $f_1, \dots, f_k$ of the quads."""
+    nb = topo.origin[topo.next[half]]
+    last = topo.origin[topo.prev[half[:, -1]]]
+    diag = topo.origin[topo.next[topo.next[half]]]
+    return np.concatenate([topo.origin[half[:, :1]], nb, last[:, None], diag], axis=1)
+
+
+def cc_sector_matrix(k: int) -> tuple[np.ndarray, np.ndarray]:
+    r"""Catmull-Clark's local subdivision matrix on the ring of a crease (or boundary)
+    vertex sector of `k` quads, and the ring's mirror permutation: vertex
+    $\frac34 v + \frac18(e_0 + e_k)$, sharp edge midpoints, smooth edges
+    $\frac14(v + e_i + F_i + F_{i+1})$, face points $F_i$ (the rules of
+    `CatmullClark.level`)."""
+    m = 2 * k + 2
+    face = np.zeros((k + 2, m))  # face point of quad i = 1..k: (v, e_{i-1}, f_i, e_i)
+    for i in range(1, k + 1):
+        face[i, [0, i, k + 1 + i, i + 1]] = 1 / 4
+    S = np.zeros((m, m))
+    S[0, [0, 1, k + 1]] = 3 / 4, 1 / 8, 1 / 8
+    for i in (1, k + 1):
+        S[i, [0, i]] = 1 / 2
+    for i in range(1, k):
+        S[1 + i, [0, 1 + i]] = 1 / 4
+        S[1 + i] += (face[i] + face[i + 1]) / 4
+    S[k + 2 :] = face[1 : k + 1]
+    perm = np.concatenate([[0], np.arange(k + 1, 0, -1), np.arange(2 * k + 1, k + 1, -1)])
+    return S, perm
+
+
+def cc_dart_matrix(n: int) -> tuple[np.ndarray, np.ndarray]:
+    r"""Catmull-Clark's local subdivision matrix on the ring $v, e_0, \dots, e_{n-1},
+    f_1, \dots, f_n$ of a dart of valence $n$ on quads ($e_0$ on the crease edge,
+    $f_i$ the diagonal of the quad between $e_{i-1}$ and $e_i$), and the mirror
+    permutation: the smooth vertex rule, the midpoint on the crease edge, the smooth
+    edge rule elsewhere, face points."""
+    m = 2 * n + 1
+    face = np.zeros((n + 1, m))
+    for i in range(1, n + 1):
+        face[i, [0, 1 + (i - 1) % n, n + i, 1 + i % n]] = 1 / 4
+    S = np.zeros((m, m))
+    S[0, 0] = (n - 2) / n
+    S[0, 1 : n + 1] = 1 / n**2
+    S[0] += face[1:].sum(axis=0) / n**2
+    S[1, [0, 1]] = 1 / 2
+    for i in range(1, n):
+        S[1 + i, [0, 1 + i]] += 1 / 4
+        S[1 + i] += (face[i] + face[i + 1]) / 4
+    S[n + 1 :] = face[1:]
+    perm = np.concatenate([[0], 1 + (-np.arange(n)) % n, n + 1 + (n - np.arange(1, n + 1))])
+    return S, perm
 
 
 class CatmullClark(AbstractSurfaceScheme):
@@ -91,6 +147,13 @@ class CatmullClark(AbstractSurfaceScheme):
         non-quad faces is refined once first (vertex $v$ keeps its index) and the
         stencils composed with that level.
 
+        Tangents at boundary, crease and corner vertices, one pair per sector (the faces
+        between two sharp edges): the crease tangent and the cross tangent from the
+        eigenvectors of the sector's local subdivision matrix where it has a tangent
+        plane, the two crease tangents at corners (see `sector_stencils` and
+        `docs/surfaces.md`). Darts: position and tangents from the eigenvectors of the
+        dart's local subdivision matrix (`dart_stencils`).
+
         Reference: M. Halstead, M. Kass and T. DeRose, "Efficient, fair interpolation
         using Catmull-Clark surfaces", SIGGRAPH 1993, eqs. (4)-(5) and Appendix A.
         """
@@ -100,12 +163,7 @@ class CatmullClark(AbstractSurfaceScheme):
             first = self.level(topo, creases, corners)
             fine = build_topology(first.faces, first.stencil.shape[0], first.creases, first.corners)
             stencils = self.limit(fine, first.creases, first.corners)
-            keep = np.arange(V)
-            coarse = [
-                s.take_rows(keep) @ first.stencil
-                for s in (stencils.position, stencils.tangent_u, stencils.tangent_v)
-            ]
-            return LimitStencils(*coarse, stencils.smooth[:V])
+            return stencils.compose(np.arange(V), first.stencil)
         n = topo.valence.astype(np.float64)
         safe = np.maximum(n, 1.0)
         rows, cols, weights = vertex_rule(
@@ -135,4 +193,6 @@ class CatmullClark(AbstractSurfaceScheme):
                     (V, V),
                 )
             )
-        return LimitStencils(position, *tables, topo.vertex_type == SMOOTH)
+        return limit_stencils(
+            topo, position, *tables, cc_sector_ring, cc_sector_matrix, cc_dart_matrix
+        )

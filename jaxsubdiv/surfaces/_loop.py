@@ -5,18 +5,59 @@ from ._base import (
     Level,
     LimitStencils,
     edge_end_rule,
+    limit_stencils,
     refined_tags,
     ring_positions,
     vertex_rule,
 )
 from ._stencil import Sparse
-from ._topology import SMOOTH, Topology
+from ._topology import Topology
 
 
 def loop_beta(n: np.ndarray) -> np.ndarray:
     r"""Loop's vertex weight $\beta(n) = \frac1n\left(\frac58 - (\frac38 + \frac14\cos\frac{2\pi}{n})^2\right)$."""
     n = np.maximum(np.asarray(n, np.float64), 1.0)
     return (5 / 8 - (3 / 8 + np.cos(2 * np.pi / n) / 4) ** 2) / n
+
+
+def loop_sector_ring(topo: Topology, half: np.ndarray) -> np.ndarray:
+    r"""`(n, k + 2)` ring columns of sectors of `k` triangles: the vertex, then its
+    neighbors $p_0, \dots, p_k$ in counter-clockwise order ($p_0$, $p_k$ on the sharp
+    edges)."""
+    nb = topo.origin[topo.next[half]]
+    last = topo.origin[topo.prev[half[:, -1]]]
+    return np.concatenate([topo.origin[half[:, :1]], nb, last[:, None]], axis=1)
+
+
+def loop_sector_matrix(k: int) -> tuple[np.ndarray, np.ndarray]:
+    r"""Loop's local subdivision matrix on the ring of a crease (or boundary) vertex
+    sector of `k` triangles, and the ring's mirror permutation: vertex $\frac34 v +
+    \frac18(p_0 + p_k)$, sharp edges midpoints, smooth edges $\frac38(v + p_i) +
+    \frac18(p_{i-1} + p_{i+1})$ (the rules of `Loop.level`)."""
+    S = np.zeros((k + 2, k + 2))
+    S[0, [0, 1, k + 1]] = 3 / 4, 1 / 8, 1 / 8
+    for i in (1, k + 1):
+        S[i, [0, i]] = 1 / 2
+    for i in range(2, k + 1):
+        S[i, [0, i]] = 3 / 8
+        S[i, [i - 1, i + 1]] = 1 / 8
+    perm = np.concatenate([[0], np.arange(k + 1, 0, -1)])
+    return S, perm
+
+
+def loop_dart_matrix(n: int) -> tuple[np.ndarray, np.ndarray]:
+    r"""Loop's local subdivision matrix on the 1-ring $v, p_0, \dots, p_{n-1}$ of a dart
+    of valence $n$ ($p_0$ on the crease edge), and the mirror permutation: the smooth
+    vertex rule, the midpoint on the crease edge, the smooth edge rule elsewhere."""
+    S = np.zeros((n + 1, n + 1))
+    beta = float(loop_beta(n))
+    S[0, 0], S[0, 1:] = 1 - n * beta, beta
+    S[1, [0, 1]] = 1 / 2
+    for i in range(1, n):
+        S[1 + i, [0, 1 + i]] = 3 / 8
+        S[1 + i, 1 + (i - 1) % n] += 1 / 8
+        S[1 + i, 1 + (i + 1) % n] += 1 / 8
+    return S, np.concatenate([[0], 1 + (-np.arange(n)) % n])
 
 
 class Loop(AbstractSurfaceScheme):
@@ -95,6 +136,13 @@ class Loop(AbstractSurfaceScheme):
         $\sum_i \sin\frac{2\pi i}{n} p_i$ over the ordered ring (Loop 1987; Hoppe et al.
         1994). Crease vertices: the cubic B-spline curve limit $\frac16 a + \frac23 v
         + \frac16 b$; corners: $v$.
+
+        Tangents at boundary, crease and corner vertices, one pair per sector (the faces
+        between two sharp edges): the crease tangent and the cross tangent from the
+        eigenvectors of the sector's local subdivision matrix where it has a tangent
+        plane, the two crease tangents at corners (see `sector_stencils` and
+        `docs/surfaces.md`). Darts: position and tangents from the eigenvectors of the
+        dart's local subdivision matrix (`dart_stencils`).
         """
         topo = topology
         V = topo.num_vertices
@@ -107,4 +155,6 @@ class Loop(AbstractSurfaceScheme):
         neighbor = topo.origin[topo.next[h]]
         tu = Sparse.build(topo.origin[h], neighbor, np.cos(angle), (V, V))
         tv = Sparse.build(topo.origin[h], neighbor, np.sin(angle), (V, V))
-        return LimitStencils(position, tu, tv, topo.vertex_type == SMOOTH)
+        return limit_stencils(
+            topo, position, tu, tv, loop_sector_ring, loop_sector_matrix, loop_dart_matrix
+        )

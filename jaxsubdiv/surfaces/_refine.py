@@ -1,12 +1,13 @@
 """Refiners and limit evaluators: topology once on the host, a stencil kernel per call."""
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from .._misc import as_float_array, static_int
-from ._base import AbstractSurfaceScheme
+from ._base import APPROXIMATE, CORNER_TANGENTS, AbstractSurfaceScheme
 from ._mesh import Mesh
 from ._stencil import Sparse, StencilTable
 from ._topology import build_topology
@@ -173,11 +174,29 @@ class Limit(eqx.Module):
     positions is one kernel, differentiable and batched like
     [`jaxsubdiv.surfaces.Refiner`][].
 
-    Tangents and normals are exact at *smooth* vertices (interior, at most one tagged
-    crease edge), of any valence. At boundary, crease and corner vertices the limit
-    surface has no single tangent plane; there `tangents` returns zeros and `normals`
-    returns an approximation: the normalized sum of the cross products of the limit
-    positions' face edges around the vertex.
+    Positions are exact at every vertex. Normals (`docs/surfaces.md` has the table):
+
+    - *smooth* vertices, any valence: exact, from the closed-form tangent stencils;
+      at *darts* (interior, on one crease edge) from the eigenvectors of the dart's
+      local subdivision matrix (positions too);
+    - boundary and crease vertices: each *sector* (the faces between the two sharp
+      edges on one side) has its own limit tangent plane, spanned by the crease curve's
+      tangent $p_0 - p_k$ and a cross tangent, the dominant symmetric left eigenvector
+      of the sector's local subdivision matrix (computed once per sector size on the
+      host). This is exact where the eigenvalue condition for a tangent plane holds
+      with these rules: sectors of 2 to 5 triangles (Loop) and 2 or 3 quads
+      (Catmull-Clark). A boundary vertex has one sector, and its normal is that
+      sector's; an interior crease vertex has two, and `normals` returns the
+      normalized sum of the two unit sector normals (the surface has two tangent
+      planes there);
+    - corners: per sector, the cross product of the two crease-curve tangents
+      $p_0 - v$ and $p_k - v$ (the limit tangents at a clamped curve end), oriented
+      like the faces; the sum over sectors, normalized;
+    - other sectors (1 face, or more faces than above): the approximation of the
+      normalized sum of the cross products of the limit positions' face edges.
+
+    `tangents` returns the two exact tangents at smooth vertices and at boundary
+    vertices with an exact sector (along the boundary, across it), zeros elsewhere.
 
     Available for `Loop()` and `CatmullClark()`.
     """
@@ -186,7 +205,12 @@ class Limit(eqx.Module):
     tangent_u: StencilTable
     tangent_v: StencilTable
     smooth: Bool[Array, " V"]
-    corner_triples: Int[Array, "K 3"]
+    sector_u: StencilTable
+    sector_v: StencilTable
+    sector_vertex: Int[Array, " S"]
+    sector_kind: Int[Array, " S"]
+    corner_points: StencilTable
+    corner_sector: Int[Array, " T"]
 
     def __init__(self, mesh: Mesh, scheme: AbstractSurfaceScheme):
         """**Arguments:**
@@ -200,13 +224,13 @@ class Limit(eqx.Module):
         self.position = StencilTable.from_sparse(stencils.position)
         self.tangent_u = StencilTable.from_sparse(stencils.tangent_u)
         self.tangent_v = StencilTable.from_sparse(stencils.tangent_v)
-        self.smooth = jnp.asarray(stencils.smooth)
-        # (previous, vertex, next) around every corner of a non-smooth vertex.
-        h = np.flatnonzero(~stencils.smooth[topo.origin])
-        self.corner_triples = jnp.asarray(
-            np.stack([topo.origin[topo.prev[h]], topo.origin[h], topo.origin[topo.next[h]]], 1),
-            jnp.int32,
-        ).reshape(-1, 3)
+        self.smooth = jax.device_put(np.asarray(stencils.smooth))
+        self.sector_u = StencilTable.from_sparse(stencils.sector_u)
+        self.sector_v = StencilTable.from_sparse(stencils.sector_v)
+        self.sector_vertex = jax.device_put(np.asarray(stencils.sector_vertex, np.int32))
+        self.sector_kind = jax.device_put(np.asarray(stencils.sector_kind, np.int32))
+        self.corner_points = StencilTable.from_sparse(stencils.corner_points)
+        self.corner_sector = jax.device_put(np.asarray(stencils.corner_sector, np.int32))
 
     def positions(self, vertices: Float[ArrayLike, "*batch V C"]) -> Float[Array, "*batch V C"]:
         """Limit positions (any channels), one per base vertex, same order."""
@@ -215,25 +239,47 @@ class Limit(eqx.Module):
     def tangents(
         self, vertices: Float[ArrayLike, "*batch V C"]
     ) -> tuple[Float[Array, "*batch V C"], Float[Array, "*batch V C"]]:
-        """Two limit tangent vectors per vertex (unnormalized; zero at non-smooth vertices).
+        """Two limit tangent vectors per vertex (unnormalized).
 
-        Their cross product points to the side the faces' counter-clockwise orientation
-        points to.
+        Exact at smooth vertices and at boundary vertices whose sector has a tangent
+        plane (there: along the boundary, and across it into the surface); zero
+        elsewhere. Their cross product points to the side the faces' counter-clockwise
+        orientation points to.
         """
         return self.tangent_u(vertices), self.tangent_v(vertices)
 
     def normals(self, vertices: Float[ArrayLike, "*batch V 3"]) -> Float[Array, "*batch V 3"]:
-        """Unit limit normals, one per base vertex (`C = 3` only)."""
-        vertices = jnp.asarray(vertices)
+        """Unit limit normals, one per base vertex (`C = 3` only); see the class
+        docstring for what is returned at boundary, crease and corner vertices."""
+        vertices = as_float_array(vertices, "vertices")
         if vertices.shape[-1] != 3:
             raise ValueError(f"`normals` needs 3-d positions, got {vertices.shape[-1]} channels.")
-        tu, tv = self.tangents(vertices)
-        exact = jnp.cross(tu, tv)
-        limit = self.positions(vertices)
-        u, v, w = (limit[..., self.corner_triples[:, k], :] for k in range(3))
-        corner = jnp.cross(w - v, u - v)
-        approx = jnp.zeros_like(limit).at[..., self.corner_triples[:, 1], :].add(corner)
-        return _safe_normalize(jnp.where(self.smooth[:, None], exact, approx))
+        if vertices.ndim < 2 or vertices.shape[-2] != self.position.num_cols:
+            raise ValueError(
+                f"`vertices` must have shape (..., {self.position.num_cols}, 3) for this "
+                f"mesh, got {vertices.shape}."
+            )
+        return _normals(self, vertices)
+
+
+@eqx.filter_jit
+def _normals(limit: Limit, vertices: Float[Array, "*batch V 3"]) -> Float[Array, "*batch V 3"]:
+    # One compiled computation per mesh and shape (eagerly, each small op would compile).
+    tu, tv = limit.tangents(vertices)
+    smooth = jnp.cross(tu, tv)
+    sector = jnp.cross(limit.sector_u(vertices), limit.sector_v(vertices))
+    points = limit.corner_points(vertices)
+    points = points.reshape(*points.shape[:-2], limit.corner_sector.shape[0], 3, 3)
+    prev, center, nxt = points[..., 0, :], points[..., 1, :], points[..., 2, :]
+    approx = jnp.zeros_like(sector).at[..., limit.corner_sector, :].add(
+        jnp.cross(nxt - center, prev - center)
+    )
+    kind = limit.sector_kind[:, None]
+    flip = (kind == CORNER_TANGENTS) & (jnp.sum(sector * approx, -1, keepdims=True) < 0)
+    sector = jnp.where(flip, -sector, sector)
+    sector = _safe_normalize(jnp.where(kind == APPROXIMATE, approx, sector))
+    summed = jnp.zeros_like(smooth).at[..., limit.sector_vertex, :].add(sector)
+    return _safe_normalize(jnp.where(limit.smooth[:, None], smooth, summed))
 
 
 def limit_positions(mesh: Mesh, scheme: AbstractSurfaceScheme) -> Float[Array, "V C"]:
@@ -264,6 +310,7 @@ def limit_normals(mesh: Mesh, scheme: AbstractSurfaceScheme) -> Float[Array, "V 
 
     **Returns:**
 
-    `(V, 3)` unit normals, exact from the limit tangents at smooth vertices.
+    `(V, 3)` unit normals: exact at smooth vertices and at boundary and crease
+    vertices whose sectors have a limit tangent plane (see [`jaxsubdiv.surfaces.Limit`][]).
     """
     return Limit(mesh, scheme).normals(mesh.vertices)

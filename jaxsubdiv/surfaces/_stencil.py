@@ -7,6 +7,7 @@ and segment-sum.
 
 import dataclasses
 import functools as ft
+import math
 
 import equinox as eqx
 import jax
@@ -14,7 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int, Shaped
 
-from .._misc import as_float_array
+from .._misc import as_float_array, is_traced
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,20 +89,40 @@ def _ranks(counts: np.ndarray) -> np.ndarray:
     return np.arange(total) - starts
 
 
+def _index_array(x) -> Array:
+    """An int32 JAX array. Concrete input is converted on the host and transferred
+    with `jax.device_put` (`jnp.asarray` compiles a small kernel per new length, which
+    made building tables for many small meshes slow)."""
+    if is_traced(x) or isinstance(x, jax.Array):
+        return jnp.asarray(x, jnp.int32)
+    return jax.device_put(np.asarray(x, np.int32))
+
+
+def _weight_array(x) -> Array:
+    """A floating JAX array, transferred like `_index_array`."""
+    if is_traced(x) or isinstance(x, jax.Array):
+        return as_float_array(x, "weights")
+    x = np.asarray(x)
+    if not np.issubdtype(x.dtype, np.floating):
+        x = x.astype(np.float64)
+    return jax.device_put(x)
+
+
 @ft.partial(jax.jit, static_argnums=4)
 def _apply(rows, cols, weights, data, num_rows):
     # One compiled computation (also when called eagerly): gather, scale, segment-sum.
     num_cols, channels = data.shape[-2:]
     batch = data.shape[:-2]
     # Fold the batch axes into the channels: one gather of (nnz, batch * C).
-    flat = jnp.moveaxis(data.reshape(-1, num_cols, channels), 0, 1).reshape(num_cols, -1)
+    size = math.prod(batch)  # explicit sizes: tables may have no rows
+    flat = jnp.moveaxis(data.reshape(size, num_cols, channels), 0, 1).reshape(num_cols, size * channels)
     out = jax.ops.segment_sum(
         weights.astype(data.dtype)[:, None] * flat[cols],
         rows,
         num_segments=num_rows,
         indices_are_sorted=True,
     )
-    out = jnp.moveaxis(out.reshape(num_rows, -1, channels), 1, 0)
+    out = jnp.moveaxis(out.reshape(num_rows, size, channels), 1, 0)
     return out.reshape(*batch, num_rows, channels)
 
 
@@ -116,9 +137,10 @@ class StencilTable(eqx.Module):
     or `jax.vmap`.
 
     The table is stored in coordinate form sorted by row (`rows`, `cols`, `weights`)
-    and applied as a gather, multiply and sorted segment-sum. A padded
-    `(rows, max width)` gather is the alternative layout; `benchmarks/bench_surfaces.py`
-    measures both (see `docs/surfaces.md`).
+    and applied as a gather, multiply and sorted segment-sum. Padded
+    `(rows, max width)` gathers and rows grouped by stencil width are the alternative
+    layouts; `benchmarks/bench_surfaces.py` measures them against this one, which was
+    not slower on CPU (see `docs/surfaces.md`).
 
     Usually built for you by [`jaxsubdiv.surfaces.Refiner`][] (one per level, or
     `Refiner.composite()`) or [`jaxsubdiv.surfaces.Limit`][];
@@ -152,9 +174,9 @@ class StencilTable(eqx.Module):
             raise ValueError("`rows`, `cols` and `weights` must be 1-d arrays of one length.")
         if not isinstance(rows, jax.core.Tracer) and len(rows_np) > 1 and np.any(np.diff(rows_np) < 0):
             raise ValueError("`rows` must be sorted (non-decreasing).")
-        self.rows = jnp.asarray(rows, jnp.int32)
-        self.cols = jnp.asarray(cols, jnp.int32)
-        self.weights = as_float_array(weights, "weights")
+        self.rows = _index_array(rows)
+        self.cols = _index_array(cols)
+        self.weights = _weight_array(weights)
         self.num_rows = int(num_rows)
         self.num_cols = int(num_cols)
 

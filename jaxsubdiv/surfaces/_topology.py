@@ -128,6 +128,36 @@ class Topology:
         start = np.concatenate([[0], np.cumsum(counts)])
         return order, start
 
+    def num_sharp(self) -> np.ndarray:
+        """`(V,)` number of sharp (boundary or tagged crease) edges at every vertex."""
+        return np.bincount(self.edges[self.sharp_edge].reshape(-1), minlength=self.num_vertices)
+
+    def sectors(self) -> tuple[np.ndarray, np.ndarray]:
+        """The fans of faces between consecutive sharp edges around every vertex that
+        is on at least one sharp edge.
+
+        Returns `(order, start)`: `order[start[s]:start[s + 1]]` are the outgoing
+        half-edges of sector `s` in counter-clockwise order (each followed by
+        `twin[prev[h]]`). The first one lies on a sharp edge (`edge[order[start[s]]]`)
+        and the sector ends at the sharp edge `edge[prev[order[start[s + 1] - 1]]]`;
+        a vertex with one sharp edge (a dart) has one sector that starts and ends on
+        it. Vectorized by pointer jumping; sectors are numbered in no particular order.
+        """
+        H = self.num_half_edges
+        ids = np.arange(H)
+        on = self.num_sharp()[self.origin] > 0
+        end = self.sharp_edge[self.edge[self.prev]]
+        succ = np.where(on & ~end, self.twin[self.prev], ids)
+        dist, jump = (succ != ids).astype(np.int64), succ.copy()
+        for _ in range(self._rounds()):
+            dist = dist + dist[jump]
+            jump = jump[jump]
+        sel = np.flatnonzero(on)
+        order = sel[np.lexsort((-dist[sel], jump[sel]))]
+        _, counts = np.unique(jump[order], return_counts=True)
+        start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        return order, start
+
 
 def build_topology(
     faces: np.ndarray,
