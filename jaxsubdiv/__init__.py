@@ -1,8 +1,14 @@
-"""jaxsubdiv: differentiable, batched subdivision curves in JAX."""
+"""jaxsubdiv: differentiable, batched subdivision curves and surfaces in JAX."""
 
 import importlib.metadata
 
-from . import io as io, shapes as shapes, surfaces as surfaces
+from . import (
+    editor as editor,
+    io as io,
+    plot as plot,
+    shapes as shapes,
+    surfaces as surfaces,
+)
 from ._analysis.analyze import Analysis as Analysis, analyze as analyze
 from ._analysis.limit import (
     limit_curvature as limit_curvature,

@@ -1,8 +1,16 @@
-"""The `jaxsubdiv` command."""
+"""The `jaxsubdiv` command: refine, fit, analyze, gallery and demo.
+
+Every subcommand is added to the parser by an `_add_<name>(subparsers)` function listed
+in `_COMMANDS`, and runs as `args.run(args)`, returning the exit status. Usage errors and
+bad input (`ValueError`, `TypeError`, `OSError`, including `jaxsubdiv.io.OutlineError`)
+are one line on stderr and exit status 2; nothing prints a traceback for them.
+"""
 
 import argparse
+import shlex
 import sys
 import time
+from pathlib import Path
 
 
 # CLI name -> (constructor, the parameter options it takes)
@@ -17,6 +25,11 @@ _SCHEMES = {
     "daubechies": (lambda a: _js().Daubechies(), ()),
 }
 _DEFAULTS = {"r": 0.25, "s": 0.75, "w": 1 / 16, "t": 0.5, "degree": 3}
+# Schemes whose parameters `fitting.fit(fit_params=True)` fits.
+_FITTABLE = ("corner-cutting", "four-point", "split-tweak")
+# Points per contour for a built-in shape's polygon when it is fitted (it is sampled
+# along its edges; refining uses the polygon itself).
+_SHAPE_SAMPLES = 400
 
 
 def _js():
@@ -40,6 +53,15 @@ def _scheme(args):
     return make(args)
 
 
+def _scheme_text(name: str, scheme) -> str:
+    """`four-point (w=0.0625)`: the CLI name and the values of its parameters."""
+    takes = _SCHEMES[name][1]
+    if not takes:
+        return name
+    values = ", ".join(f"{t}={float(getattr(scheme, t)):.6g}" for t in takes)
+    return f"{name} ({values})"
+
+
 def _add_scheme_options(parser, default):
     parser.add_argument("--scheme", default=default, choices=sorted(_SCHEMES),
                         help=f"subdivision scheme (default: {default})")
@@ -50,13 +72,97 @@ def _add_scheme_options(parser, default):
     parser.add_argument("--degree", type=int, help="Lane-Riesenfeld degree (default 3)")
 
 
-def _read_inputs(args):
+def _add_input_options(parser, shape_samples: str):
+    parser.add_argument(
+        "input", nargs="?",
+        help="outline file: CSV/TXT (x,y per line), NPY/NPZ, JSON, SVG or PNG silhouette",
+    )
+    parser.add_argument("--shape", help="a built-in shape instead of INPUT (jaxsubdiv.shapes)")
+    parser.add_argument("--text", help='the outlines of a text glyph instead of INPUT, e.g. "&"')
+    parser.add_argument("--font", help="with --text: a matplotlib font family or font file "
+                        "(default: DejaVu Sans)")
+    parser.add_argument(
+        "--samples", type=int,
+        help="points per contour, equally spaced by arc length (default: SVG curves and "
+        f"glyphs 400; point lists and images as they are; --shape {shape_samples})",
+    )
+
+
+def _read_inputs(args, shape_samples: int | None = None):
+    """The outlines of INPUT, --shape or --text (exactly one of them)."""
     js = _js()
-    if (args.input is None) == (args.shape is None):
-        raise ValueError("give an INPUT file or --shape NAME (one of them)")
+    given = [
+        name
+        for name, value in (("INPUT", args.input), ("--shape", args.shape), ("--text", args.text))
+        if value is not None
+    ]
+    if len(given) != 1:
+        raise ValueError(
+            "give one input: an INPUT file, --shape NAME or --text TEXT"
+            + (f" (got {' and '.join(given)})" if given else "")
+        )
+    if args.font is not None and args.text is None:
+        raise ValueError("--font applies only to --text")
     if args.shape is not None:
-        return [js.io.Outline(points=js.shapes.get(args.shape), closed=True)]
-    return js.io.read_outlines(args.input)
+        from ._io.common import check_samples, resample_polyline
+
+        points = js.shapes.get(args.shape)
+        samples = check_samples(args.samples) or shape_samples
+        if samples is not None:
+            points = resample_polyline(points, samples, True)
+        return [js.io.Outline(points=points, closed=True)]
+    if args.text is not None:
+        return js.io.read_outlines(text=args.text, font=args.font, samples=args.samples)
+    return js.io.read_outlines(args.input, samples=args.samples)
+
+
+def _source(args) -> str:
+    if args.shape is not None:
+        return f"shape {args.shape!r}"
+    if args.text is not None:
+        return f"text {args.text!r} ({args.font or 'DejaVu Sans'})"
+    return args.input
+
+
+def _check_output(path, suffixes, what: str) -> None:
+    """Fail before the work, not after it, on an output that cannot be written."""
+    if path is None:
+        return
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in suffixes:
+        raise ValueError(
+            f"{what} {path}: unknown file type {Path(path).suffix or '(none)'!r}; use one of "
+            + ", ".join("." + s for s in suffixes)
+        )
+    parent = Path(path).parent
+    if not parent.is_dir():
+        raise ValueError(f"{what} {path}: the directory {parent} does not exist")
+
+
+def _picture_types():
+    from matplotlib.figure import Figure
+
+    return tuple(sorted(Figure().canvas.get_supported_filetypes()))
+
+
+def _numbered(path: str, index: int, count: int) -> str:
+    """`path` for one contour; `stem-<index>.suffix` when there are several."""
+    if count == 1:
+        return path
+    p = Path(path)
+    return str(p.with_name(f"{p.stem}-{index + 1}{p.suffix}"))
+
+
+def _new_figure(figsize):
+    import matplotlib
+
+    matplotlib.use("Agg")  # no display is ever needed
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, dpi=100)
+
+
+# ---------------------------------------------------------------------------- refine
 
 
 def _refine(args) -> int:
@@ -64,6 +170,8 @@ def _refine(args) -> int:
 
     js = _js()
     scheme = _scheme(args)
+    _check_output(args.output, ("csv", "txt", "npy", "npz", "json", "svg"), "-o")
+    _check_output(args.plot, _picture_types(), "--plot")
     outlines = _read_inputs(args)
     refined = []
     for outline in outlines:
@@ -75,21 +183,207 @@ def _refine(args) -> int:
         js.io.write_outlines(args.output, refined)
         print(f"wrote {args.output}")
     if args.plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(6, 6))
+        figure = _new_figure((6, 6))
+        ax = figure.add_subplot()
         for before, after in zip(outlines, refined):
             close = lambda o: np.vstack([o.points, o.points[:1]]) if o.closed else o.points
             ax.plot(*close(before).T, "o--", ms=3, lw=0.8, color="0.6")
             ax.plot(*close(after).T, lw=1.4, color="tab:blue")
         ax.set_aspect("equal")
         ax.set_title(f"{args.scheme}, {args.levels} levels", fontsize=9)
-        fig.savefig(args.plot, dpi=120, bbox_inches="tight")
+        figure.savefig(args.plot, dpi=120, bbox_inches="tight")
         print(f"wrote {args.plot}")
     return 0
+
+
+def _add_refine(sub):
+    refine = sub.add_parser(
+        "refine", help="refine an outline file, a text glyph or a built-in shape",
+        description="Refine the polygons of an outline file, a glyph or a built-in shape.",
+    )
+    _add_input_options(refine, "its polygon as it is")
+    _add_scheme_options(refine, "cubic-bspline")
+    refine.add_argument("--levels", type=int, default=5, help="refinement levels (default: 5)")
+    refine.add_argument("--boundary", choices=["closed", "open", "clamped"],
+                        help="default: closed for closed outlines, open otherwise")
+    refine.add_argument("--output", "-o", help="file for the refined points (format by suffix)")
+    refine.add_argument("--plot", help="PNG of the polygon and the refined curve")
+    refine.set_defaults(run=_refine)
+
+
+# ---------------------------------------------------------------------------- fit
+
+
+def _print_errors(result, size: float, elapsed: float, compiled: bool = True) -> None:
+    rms, worst = float(result.rms), float(result.max_error)
+    print(f"  status     {result.message.split('.')[0]}")
+    print(f"  steps      {int(result.num_steps)}")
+    print(f"  rms error  {rms:.3g} ({rms / size:.2e} of the size; two-sided)")
+    print(f"  max error  {worst:.3g} ({worst / size:.2e} of the size; two-sided)")
+    print(f"  time       {elapsed:.2f} s" + (" (including compilation)" if compiled else ""))
+
+
+def _fit(args) -> int:
+    import jax
+    import numpy as np
+
+    import fitting
+
+    js = _js()
+    scheme = _scheme(args)
+    if args.fit_params and args.scheme not in _FITTABLE:
+        raise ValueError(
+            f"--fit-params: --scheme {args.scheme} has no parameters to fit (these do: "
+            f"{', '.join(_FITTABLE)})"
+        )
+    if args.n < 1:
+        raise ValueError(f"--n must be at least 1, got {args.n}")
+    if args.max_steps < 1:
+        raise ValueError(f"--max-steps must be at least 1, got {args.max_steps}")
+    _check_output(args.output, ("json", "csv", "txt", "npy", "npz", "svg"), "-o")
+    _check_output(args.svg, ("svg",), "--svg")
+    _check_output(args.plot, _picture_types(), "--plot")
+    outlines = _read_inputs(args, shape_samples=_SHAPE_SAMPLES)
+    count = len(outlines)
+    if args.output and args.output.lower().endswith(".npy") and count > 1:
+        raise ValueError(
+            f"-o {args.output}: a .npy file holds one curve and the input has {count} "
+            "contours; use .npz, .csv, .txt, .svg or .json"
+        )
+    unknowns = 2 * args.n + (len(_SCHEMES[args.scheme][1]) if args.fit_params else 0)
+    for i, outline in enumerate(outlines):
+        if len(outline.points) < unknowns:
+            raise ValueError(
+                f"--n {args.n} is too many control points for contour {i + 1}: its "
+                f"{len(outline.points)} points are fewer than the {unknowns} unknowns; use a "
+                "smaller --n or more --samples"
+            )
+    print(
+        f"fitting {_scheme_text(args.scheme, scheme)} curves with {args.n} control points "
+        f"to {_source(args)}: {count} contour{'s' if count > 1 else ''}"
+        + (" (scheme parameters fitted too)" if args.fit_params else "")
+    )
+    results, sizes = [], []
+    for i, outline in enumerate(outlines):
+        boundary = args.boundary or ("closed" if outline.closed else "open")
+        size = float(np.linalg.norm(np.ptp(outline.points, axis=0)))
+        print(
+            f"contour {i + 1} of {count}: {len(outline.points)} samples, {boundary}, "
+            f"size {size:.3g}"
+        )
+        sys.stdout.flush()  # before the progress line on stderr
+        start = time.perf_counter()
+        result = fitting.fit(
+            outline.points, scheme, args.n, levels=args.levels, boundary=boundary,
+            fit_params=bool(args.fit_params), max_steps=args.max_steps,
+            progress=not args.quiet, on_failure="ignore",
+        )
+        result = jax.block_until_ready(result)
+        elapsed = time.perf_counter() - start
+        if args.fit_params:
+            print(f"  scheme     {_scheme_text(args.scheme, result.scheme)}")
+        # The first fit compiles; later contours with as many samples reuse it.
+        _print_errors(result, size, elapsed, compiled=i == 0)
+        results.append(result)
+        sizes.append(size)
+
+    if args.output and args.output.lower().endswith(".json"):
+        for i, (result, outline, size) in enumerate(zip(results, outlines, sizes)):
+            path = _numbered(args.output, i, count)
+            info = {
+                "command": args.command_line,
+                "input": _source(args),
+                "contour": i + 1,
+                "contours": count,
+                "samples": len(outline.points),
+                "size": size,
+            }
+            js.io.write_result_json(path, result, info=info)
+            print(f"wrote {path}")
+    elif args.output:
+        curves = [
+            js.io.Outline(points=np.asarray(r.curve, np.float64), closed=r.boundary == "closed")
+            for r in results
+        ]
+        js.io.write_outlines(args.output, curves)
+        print(f"wrote {args.output}")
+    if args.svg:
+        for i, result in enumerate(results):
+            path = _numbered(args.svg, i, count)
+            exact = js.io.write_curve_svg(
+                path, np.asarray(result.control_points), result.scheme,
+                boundary=result.boundary,
+            )
+            kind = "exact Bezier segments" if exact else "a polyline of exact limit points"
+            print(f"wrote {path} ({kind})")
+    if args.plot:
+        from .plot import plot_fit
+
+        figure = _new_figure((6.5, 6))
+        ax = figure.add_subplot()
+        top = max(float(r.max_target_to_curve) for r in results)
+        for i, (result, outline) in enumerate(zip(results, outlines)):
+            plot_fit(result, outline.points, ax, colorbar=i == count - 1, vmax=top or None,
+                     legend=i == 0)
+        worst = max(float(r.rms) / s for r, s in zip(results, sizes))
+        largest = max(float(r.max_error) / s for r, s in zip(results, sizes))
+        ax.set_title(
+            f"{_scheme_text(args.scheme, results[0].scheme)}, {args.n} control points"
+            + (f" per contour ({count}; the worst)" if count > 1 else "")
+            + f": rms {worst:.1e}, max {largest:.1e} of the size",
+            fontsize=9,
+        )
+        figure.savefig(args.plot, dpi=130, bbox_inches="tight")
+        print(f"wrote {args.plot}")
+    failed = [i for i, r in enumerate(results) if not bool(r.converged)]
+    for i in failed:
+        print(
+            f"jaxsubdiv fit: contour {i + 1} of {count} did not converge "
+            f"({results[i].message.split('. ')[0]}) after {int(results[i].num_steps)} steps",
+            file=sys.stderr,
+        )
+    return 1 if failed else 0
+
+
+def _add_fit(sub):
+    fit = sub.add_parser(
+        "fit", help="fit a subdivision curve to every contour of an outline",
+        description=(
+            "Fit a subdivision curve's control polygon (and optionally the scheme's "
+            "parameters) to each contour of an outline file, a glyph or a built-in shape. "
+            "Prints the two-sided rms and max error of each fit, absolute and relative to "
+            "the contour's size (its bounding-box diagonal). Exit status: 0 if every "
+            "contour converged, 1 if some did not, 2 for bad input."
+        ),
+    )
+    _add_input_options(fit, f"{_SHAPE_SAMPLES} along its edges")
+    _add_scheme_options(fit, "cubic-bspline")
+    fit.add_argument("--n", type=int, default=32,
+                     help="control points per contour (default: 32)")
+    fit.add_argument("--fit-params", action="store_true",
+                     help="also fit the scheme's parameters (corner-cutting r, s; four-point "
+                     "w; split-tweak t), starting from the given values")
+    fit.add_argument("--levels", type=int,
+                     help="levels of the limit-curve polyline the errors are measured to "
+                     "(default: enough for max(1024, 4 x samples) points)")
+    fit.add_argument("--boundary", choices=["closed", "open", "clamped"],
+                     help="default: closed for closed contours, open otherwise")
+    fit.add_argument("--max-steps", type=int, default=500,
+                     help="solver step limit per contour (default: 500)")
+    fit.add_argument("--output", "-o",
+                     help=".json: the result (scheme, parameters, control points, errors; "
+                     "one file per contour, numbered, when there are several); .csv, .txt, "
+                     ".npy, .npz or .svg: the fitted curves' points")
+    fit.add_argument("--svg", help="SVG of the fitted curve (exact Bezier segments for "
+                     "cubic-bspline and chaikin; numbered per contour when there are several)")
+    fit.add_argument("--plot", help="picture (PNG, PDF, ...) of the fit: samples colored by "
+                     "their distance to the curve, control polygon, curve")
+    fit.add_argument("--quiet", "-q", action="store_true",
+                     help="no progress display on stderr while fitting")
+    fit.set_defaults(run=_fit)
+
+
+# ---------------------------------------------------------------------------- analyze
 
 
 def _analyze(args) -> int:
@@ -97,23 +391,171 @@ def _analyze(args) -> int:
     return 0
 
 
+def _add_analyze(sub):
+    analyze = sub.add_parser(
+        "analyze", help="eigenvalues, stencils and smoothness of a scheme",
+        description="Print a scheme's mask, eigenvalues, limit and tangent stencils and "
+        "smoothness (jaxsubdiv.analyze).",
+    )
+    _add_scheme_options(analyze, "four-point")
+    analyze.set_defaults(run=_analyze)
+
+
+# ---------------------------------------------------------------------------- gallery
+
+
+# The seed paper's figures (Alam 2025, "Study of subdivision curve schemes ..."):
+# (shape, scheme, figure). Shapes it does not draw get all three schemes.
+_PAPER_ROWS = (
+    ("jar", "chaikin", "3.2"),
+    ("mango", "chaikin", "3.3"),
+    ("pi", "chaikin", "3.4"),
+    ("car", "chaikin", "3.5"),
+    ("rabbit", "corner-cutting", "4.2"),
+    ("hand", "corner-cutting", "4.3"),
+    ("pi", "corner-cutting", "4.4"),
+    ("U", "four-point", "5.2"),
+    ("mug", "four-point", "5.3"),
+    ("pi", "four-point", "5.4"),
+)
+_PAPER_SCHEMES = ("chaikin", "corner-cutting", "four-point")
+_SCHEME_TITLES = {"chaikin": "Chaikin", "corner-cutting": "corner cutting",
+                  "four-point": "four-point"}
+
+
+def _gallery_rows(shapes):
+    """(shape, scheme, figure) rows: the paper's figures in order, then other shapes."""
+    rows = [row for row in _PAPER_ROWS if row[0] in shapes]
+    drawn = {row[0] for row in _PAPER_ROWS}
+    for shape in shapes:
+        if shape not in drawn:
+            rows += [(shape, scheme, None) for scheme in _PAPER_SCHEMES]
+    return rows
+
+
+def _gallery(args) -> int:
+    js = _js()
+    from .plot import plot_levels
+
+    names = js.shapes.names()
+    shapes = names
+    if args.shapes:
+        shapes = list(dict.fromkeys(s for item in args.shapes for s in item.split(",") if s))
+    unknown = [s for s in shapes if s not in names]
+    if unknown:
+        raise ValueError(f"--shapes: unknown shape {unknown[0]!r}; the built-in shapes are "
+                         f"{', '.join(names)}")
+    levels = args.levels
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    schemes = {
+        "chaikin": js.Chaikin(),
+        "corner-cutting": js.CornerCutting(args.r, args.s),
+        "four-point": js.FourPoint(args.w),
+    }
+    lines = [
+        "# Refinement gallery",
+        "",
+        "The figure rows of the seed paper (Alam 2025, *Study of subdivision curve schemes "
+        "and their impact on CAGD and computer graphics*, Figures 3.2-5.4), reproduced by "
+        f"`{args.command_line}` with jaxsubdiv's built-in shapes: each row shows a control "
+        f"polygon at levels {', '.join(map(str, levels))}.",
+        "",
+        f"How the levels are computed: a level with at most {args.max_points:,} points is "
+        "refined with `jaxsubdiv.refine`. A deeper one (level 20 of a 20-point polygon has "
+        "20,971,520 points) is drawn as exact points of the limit curve: "
+        "`jaxsubdiv.limit_points(refine(P, k))` for the first level k with at least 4,096 "
+        "points, which is what the level's polygon converges to. Each caption says how far "
+        "the level's polygon still is from those points (extrapolated from levels k-1 and "
+        "k) and compares that with a pixel.",
+        "",
+        "The schemes and the smoothness of their limit curves (`jaxsubdiv.smoothness`):",
+        "",
+        *(f"- {_scheme_text(name, scheme)}: {js.smoothness(scheme)}"
+          for name, scheme in schemes.items()),
+        "",
+    ]
+    rows = _gallery_rows(shapes)
+    for shape, name, figure_number in rows:
+        scheme = schemes[name]
+        title = f"{shape}, {_SCHEME_TITLES[name]}"
+        levels_figure = plot_levels(js.shapes.get(shape), scheme, levels, title=title,
+                                    max_points=args.max_points)
+        file = f"{shape}-{name}.png"
+        levels_figure.figure.savefig(out / file, dpi=args.dpi, bbox_inches="tight")
+        source = f" (seed paper, Figure {figure_number})" if figure_number else ""
+        lines += [
+            f"## {title}{source}",
+            "",
+            f"![{title}]({file})",
+            "",
+            _sentence(levels_figure.caption.replace(f"{title}: ", "", 1)),
+            "",
+        ]
+        print(f"wrote {out / file}")
+    (out / "index.md").write_text("\n".join(lines))
+    print(f"wrote {out / 'index.md'} ({len(rows)} rows)")
+    return 0
+
+
+def _sentence(text: str) -> str:
+    return text[:1].upper() + text[1:]
+
+
+def _level_list(text: str) -> list[int]:
+    try:
+        levels = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected levels separated by commas, such as 0,1,2,10,20; got {text!r}"
+        ) from None
+    if not levels or min(levels) < 0:
+        raise argparse.ArgumentTypeError(f"levels must be >= 0, got {text!r}")
+    return levels
+
+
+def _add_gallery(sub):
+    gallery = sub.add_parser(
+        "gallery", help="the seed paper's refinement figures: one PNG row per shape and scheme",
+        description=(
+            "Draw each built-in shape with the seed paper's schemes (Chaikin: jar, mango, "
+            "pi, car; corner cutting: rabbit, hand, pi; four-point: U, mug, pi; other shapes "
+            "with all three) at several levels, one PNG row each, and an index.md with "
+            "captions that say how each level was computed."
+        ),
+    )
+    gallery.add_argument("--output", "-o", required=True, help="directory to write into")
+    gallery.add_argument("--shapes", nargs="+", action="extend",
+                         help="shapes to draw, by name (default: all built-in shapes)")
+    gallery.add_argument("--levels", type=_level_list, default=[0, 1, 2, 10, 20],
+                         help="levels, separated by commas (default: 0,1,2,10,20)")
+    gallery.add_argument("--r", type=float, default=0.3,
+                         help="corner-cutting ratio r (default: 0.3)")
+    gallery.add_argument("--s", type=float, default=0.7,
+                         help="corner-cutting ratio s (default: 0.7)")
+    gallery.add_argument("--w", type=float, default=1 / 16,
+                         help="four-point tension w (default: 1/16)")
+    gallery.add_argument("--max-points", type=int, default=50_000,
+                         help="deepest refinement computed outright, in points (default: "
+                         "50000); deeper levels are drawn as limit points")
+    gallery.add_argument("--dpi", type=int, default=100, help="PNG resolution (default: 100)")
+    gallery.set_defaults(run=_gallery)
+
+
+# ---------------------------------------------------------------------------- demo
+
+
 def _demo(args) -> int:
-    import jax
-
-    # Fitting is done in float64 (the command is an application; the library leaves
-    # JAX's global configuration alone).
-    jax.config.update("jax_enable_x64", True)
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
 
     import fitting
     import jaxsubdiv as js
 
+    from .plot import plot_fit
+
     if args.samples < 4 * args.n:
         raise ValueError(f"--samples must be at least 4 x --n = {4 * args.n}")
+    _check_output(args.output, _picture_types(), "-o")
     outlines = js.io.read_outlines(text=args.text, font="DejaVu Sans", samples=args.samples)
     # A glyph with holes has several contours: fit the outer one (the largest).
     target = max((o.points for o in outlines), key=lambda p: np.ptp(p, axis=0).prod())
@@ -125,27 +567,32 @@ def _demo(args) -> int:
     start = time.perf_counter()
     result = fitting.fit(target, js.CubicBSpline(), args.n, on_failure="ignore")
     rms, worst = float(result.rms), float(result.max_error)
-    elapsed = time.perf_counter() - start
-    print(f"  status     {result.message.split('.')[0]}")
-    print(f"  steps      {int(result.num_steps)}")
-    print(f"  rms error  {rms:.3g} ({rms / size:.2e} of the size; two-sided)")
-    print(f"  max error  {worst:.3g} ({worst / size:.2e} of the size; two-sided)")
-    print(f"  time       {elapsed:.2f} s (including compilation)")
+    _print_errors(result, size, time.perf_counter() - start)
 
-    curve = np.asarray(result.curve)
-    control = np.asarray(result.control_points)
-    fig, ax = plt.subplots(figsize=(5, 6))
-    ax.plot(*target.T, ".", ms=2.5, color="0.55", label=f"{len(target)} samples")
-    ax.plot(*np.vstack([control, control[:1]]).T, "o--", ms=3, lw=0.8, color="tab:orange",
-            label=f"{args.n} control points")
-    ax.plot(*np.vstack([curve, curve[:1]]).T, color="tab:blue", lw=1.5, label="limit curve")
-    ax.set_aspect("equal")
-    ax.legend(loc="upper right", fontsize=7)
-    ax.set_title(f"cubic B-spline fit: rms {rms / size:.1e}, max {worst / size:.1e} of size",
-                 fontsize=9)
-    fig.savefig(args.output, dpi=130, bbox_inches="tight")
+    figure = _new_figure((5.5, 6))
+    artists = plot_fit(result, target, figure.add_subplot())
+    artists.ax.set_title(
+        f"cubic B-spline fit: rms {rms / size:.1e}, max {worst / size:.1e} of size", fontsize=9
+    )
+    figure.savefig(args.output, dpi=130, bbox_inches="tight")
     print(f"wrote {args.output}")
     return 0 if bool(result.converged) else 1
+
+
+def _add_demo(sub):
+    demo = sub.add_parser(
+        "demo", help="fit a subdivision curve to a glyph's outline; print its error, plot it",
+        description="Fit a closed cubic B-spline to the outer outline of a glyph (DejaVu "
+        "Sans), print the status, steps and two-sided errors, and write a picture.",
+    )
+    demo.add_argument("--text", default="S", help="the glyph to fit (default: S)")
+    demo.add_argument("--n", type=int, default=32, help="control points (default: 32)")
+    demo.add_argument("--samples", type=int, default=400, help="outline samples (default: 400)")
+    demo.add_argument("--output", "-o", default="demo.png", help="PNG to write (default: demo.png)")
+    demo.set_defaults(run=_demo)
+
+
+# ---------------------------------------------------------------------------- main
 
 
 class _Parser(argparse.ArgumentParser):
@@ -156,42 +603,46 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
-def main(argv=None) -> int:
+# One `_add_<name>(subparsers)` per subcommand, in the order `--help` lists them.
+def _add_edit(sub):
+    from ._editor_cli import add_parser
+
+    add_parser(sub)
+
+
+_COMMANDS = [_add_refine, _add_fit, _add_analyze, _add_gallery, _add_edit, _add_demo]
+
+
+def _parser() -> argparse.ArgumentParser:
     parser = _Parser(
-        prog="jaxsubdiv", description="Differentiable subdivision curves: refine, analyze, fit."
+        prog="jaxsubdiv",
+        description="Differentiable subdivision curves: refine, fit, analyze, draw.",
     )
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    refine = sub.add_parser("refine", help="refine an outline file or a built-in shape")
-    refine.add_argument("input", nargs="?", help="CSV/TXT, NPY/NPZ, JSON, SVG or PNG outline")
-    refine.add_argument("--shape", help="a built-in shape instead of INPUT (jaxsubdiv.shapes)")
-    _add_scheme_options(refine, "cubic-bspline")
-    refine.add_argument("--levels", type=int, default=5, help="refinement levels (default: 5)")
-    refine.add_argument("--boundary", choices=["closed", "open", "clamped"],
-                        help="default: closed for closed outlines, open otherwise")
-    refine.add_argument("--output", "-o", help="file for the refined points (format by suffix)")
-    refine.add_argument("--plot", help="PNG of the polygon and the refined curve")
-    refine.set_defaults(run=_refine)
-    analyze = sub.add_parser("analyze", help="eigenvalues, stencils and smoothness of a scheme")
-    _add_scheme_options(analyze, "four-point")
-    analyze.set_defaults(run=_analyze)
-    demo = sub.add_parser(
-        "demo", help="fit a subdivision curve to a glyph's outline; print its error, plot it"
-    )
-    demo.add_argument("--text", default="S", help="the glyph to fit (default: S)")
-    demo.add_argument("--n", type=int, default=32, help="control points (default: 32)")
-    demo.add_argument("--samples", type=int, default=400, help="outline samples (default: 400)")
-    demo.add_argument("--output", "-o", default="demo.png", help="PNG to write (default: demo.png)")
-    demo.set_defaults(run=_demo)
-    args = parser.parse_args(argv)
+    for add in _COMMANDS:
+        add(sub)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Run the command with `argv` (default: `sys.argv[1:]`); return the exit status."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = _parser().parse_args(argv)
+    args.command_line = shlex.join(["jaxsubdiv", *argv])
     import jax
 
-    # Files and analysis in float64 (an application may set this; the library does not).
+    # Files, analysis and fits in float64 (an application may set this; the library
+    # leaves JAX's global configuration alone).
     jax.config.update("jax_enable_x64", True)
     try:
         return args.run(args)
     except (ValueError, TypeError, OSError) as e:
-        print(f"jaxsubdiv {args.command}: error: {e}", file=sys.stderr)
+        message = " ".join(str(e).split())  # always one line
+        print(f"jaxsubdiv {args.command}: error: {message}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"jaxsubdiv {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

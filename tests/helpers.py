@@ -184,3 +184,64 @@ def prism():
     faces = [[4, 3, 2, 1, 0], [5, 6, 7, 8, 9]]
     faces += [[i, (i + 1) % 5, 5 + (i + 1) % 5, 5 + i] for i in range(5)]
     return v, faces
+
+
+# --------------------------------------------------------------------------------------
+# Curves for the command-line and plotting tests (scipy and numpy; independent of
+# jaxsubdiv).
+
+
+def periodic_bspline(control, degree):
+    """The closed uniform B-spline of a control polygon as a `scipy.interpolate.BSpline`
+    on the periodic knot vector -degree, ..., n + degree (integer knots), so that
+    `curve(u)` for u in [0, n) traces it once. The limit curve of `CubicBSpline`
+    (degree 3) and `Chaikin` (degree 2)."""
+    from scipy.interpolate import BSpline
+
+    control = np.asarray(control, dtype=float)
+    n = len(control)
+    knots = np.arange(-degree, n + degree + 1, dtype=float)
+    coefficients = np.concatenate([control, control[:degree]])
+    return BSpline(knots, coefficients, degree, extrapolate="periodic")
+
+
+def svg_bezier_paths(text):
+    """Every `<path d=...>` of an SVG as a list of Bezier segments, each an array
+    `(degree + 1, 2)` in the path's own coordinates. Knows the absolute M, L, Q, C and Z
+    that `jaxsubdiv.io` writes, and nothing else (anything else fails the test)."""
+    import re
+
+    paths = []
+    for d in re.findall(r'<path[^>]*\sd="([^"]*)"', text):
+        tokens = re.findall(r"[A-Za-z]|[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", d)
+        segments, i, current, start = [], 0, None, None
+        arity = {"L": 1, "Q": 2, "C": 3}
+        while i < len(tokens):
+            letter = tokens[i]
+            i += 1
+            if letter == "M":
+                current = start = np.array([float(tokens[i]), float(tokens[i + 1])])
+                i += 2
+            elif letter in arity:
+                k = arity[letter]
+                points = np.array([float(v) for v in tokens[i : i + 2 * k]]).reshape(k, 2)
+                i += 2 * k
+                segments.append(np.vstack([current, points]))
+                current = points[-1]
+            elif letter == "Z":
+                if not np.array_equal(current, start):
+                    segments.append(np.vstack([current, start]))
+                current = start
+            else:
+                raise AssertionError(f"unexpected path command {letter!r} in {d[:80]!r}")
+        paths.append(segments)
+    return paths
+
+
+def bezier_evaluate(segment, u):
+    """de Casteljau evaluation of one Bezier segment `(degree + 1, 2)` at parameters u."""
+    u = np.asarray(u, dtype=float)[:, None, None]
+    points = np.asarray(segment, dtype=float)[None]
+    while points.shape[1] > 1:
+        points = (1 - u) * points[:, :-1] + u * points[:, 1:]
+    return points[:, 0]

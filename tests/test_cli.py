@@ -1,28 +1,191 @@
-"""The `jaxsubdiv` command, driven in a subprocess."""
+"""The `jaxsubdiv` command: every subcommand and input format driven, outputs read back
+(with parsers written here, not jaxsubdiv's) and checked against independent references.
 
+Most cases call `main([...])` in this process (a subprocess costs ~3 s of imports); a few
+run the installed `jaxsubdiv` script.
+"""
+
+import json
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import matplotlib.image
 import numpy as np
+import pytest
+from helpers import (
+    bezier_evaluate,
+    chaikin_python,
+    periodic_bspline,
+    svg_bezier_paths,
+)
+
+import jaxsubdiv as js
+from jaxsubdiv._cli import main
+
+
+SCRIPT = Path(sys.executable).with_name("jaxsubdiv")
 
 
 def run(*args, timeout=600):
-    return subprocess.run(
-        [sys.executable, "-m", "jaxsubdiv._cli", *args],
-        capture_output=True, text=True, timeout=timeout,
-    )
+    """The installed console script in a subprocess."""
+    return subprocess.run([str(SCRIPT), *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout)
 
 
-def test_demo_fits_prints_its_error_and_writes_a_picture(tmp_path):
+def cli(capsys, *args):
+    """`main` in this process: (exit status, stdout, stderr)."""
+    try:
+        status = main([str(a) for a in args])
+    except SystemExit as e:  # argparse: usage errors and --help
+        status = e.code
+    out = capsys.readouterr()
+    return status, out.out, out.err
+
+
+def _pixels_vary(path):
+    return matplotlib.image.imread(path)[..., :3].std() > 0.05
+
+
+def _table(path):
+    """x, y rows of a CSV/TXT file (commas or whitespace, `#` comments)."""
+    rows = [line for line in Path(path).read_text().splitlines()
+            if line.strip() and not line.lstrip().startswith("#")]
+    return np.array([[float(v) for v in re.split(r"[,\s]+", line.strip())] for line in rows])
+
+
+def _circle(m, radius=2.0, center=(1.0, -0.5)):
+    angle = 2 * np.pi * (np.arange(m) + 0.3) / m
+    return np.stack([center[0] + radius * np.cos(angle), center[1] + radius * np.sin(angle)], 1)
+
+
+def _parameter_shift(curve, point, period, step):
+    """The parameter in [0, period) on the grid `step` where `curve` is nearest `point`."""
+    grid = np.arange(0, period, step)
+    return grid[np.argmin(np.linalg.norm(curve(grid) - point, axis=1))]
+
+
+def _check_bezier_svg(svg_path, control, degree):
+    """The SVG's Bezier segments sampled by de Casteljau against scipy's periodic
+    B-spline of `control`; returns the largest distance relative to the curve's size."""
+    (segments,) = svg_bezier_paths(Path(svg_path).read_text())
+    assert len(segments) == len(control)
+    assert all(len(s) == degree + 1 for s in segments)  # cubic: C, quadratic: Q
+    curve = periodic_bspline(control, degree)
+    shift = _parameter_shift(curve, segments[0][0], len(control), 0.5)
+    u = np.linspace(0, 1, 41)
+    worst = 0.0
+    for i, segment in enumerate(segments):
+        error = bezier_evaluate(segment, u) - curve(shift + i + u)
+        worst = max(worst, float(np.abs(error).max()))
+    size = np.linalg.norm(np.ptp(curve(np.linspace(0, len(control), 2000)), axis=0))
+    return worst / size
+
+
+# ----------------------------------------------------------------------------- fit
+
+
+def test_fit_circle_from_csv_with_the_installed_script(tmp_path):
+    """A circle of radius 2 sampled in a CSV, fitted with Chaikin's scheme: the fitted
+    curve (scipy's periodic quadratic B-spline of the written control points) stays
+    within 1e-3 of the radius, the SVG's quadratic Beziers are that curve to 1e-9, and
+    the progress display shows on stderr."""
+    samples = _circle(200)
+    source = tmp_path / "circle.csv"
+    rows = "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in samples)
+    source.write_text("# a circle\nx,y\n" + rows)
+    out, svg, png = tmp_path / "fit.json", tmp_path / "fit.svg", tmp_path / "fit.png"
+    result = run("fit", source, "--scheme", "chaikin", "--n", 16, "-o", out, "--svg", svg,
+                 "--plot", png)
+    assert result.returncode == 0, result.stderr
+    assert "fitting: step" in result.stderr  # the progress display
+    assert "contour 1 of 1: 200 samples, closed" in result.stdout
+    assert "status     converged" in result.stdout
+    saved = json.loads(out.read_text())
+    assert saved["scheme"]["type"] == "Chaikin" and saved["boundary"] == "closed"
+    control = np.array(saved["control_points"])
+    assert control.shape == (16, 2)
+    curve = periodic_bspline(control, 2)(np.linspace(0, 16, 4000, endpoint=False))
+    radius = np.linalg.norm(curve - [1.0, -0.5], axis=1)
+    assert np.abs(radius - 2.0).max() < 1e-3
+    # The printed errors are the saved ones, and relative to the size (the diagonal of
+    # the bounding box, 4 sqrt 2 here).
+    rms = float(re.search(r"rms error  (\S+) \((\S+) of the size", result.stdout).group(1))
+    relative = float(re.search(r"rms error  \S+ \((\S+) of the size", result.stdout).group(1))
+    np.testing.assert_allclose(rms, saved["errors"]["rms"], rtol=5e-3)  # 3 digits
+    size = np.linalg.norm(np.ptp(samples, axis=0))
+    np.testing.assert_allclose(relative, rms / size, rtol=1e-2)
+    assert saved["errors"]["max_error"] < 1e-3
+    assert _check_bezier_svg(svg, control, 2) < 1e-9
+    assert "exact Bezier segments" in result.stdout
+    assert _pixels_vary(png)
+
+
+def test_fit_glyph_with_a_hole_json_reproduces_the_curve(capsys, tmp_path):
+    """'o' has two contours, fitted separately; each JSON rebuilds the written curve, and
+    the SVGs are exact cubic Beziers. (The same fit settings as the demo test below, so
+    the two share one compilation.)"""
+    args = ("fit", "--text", "o", "--n", 16, "--samples", 200, "--quiet")
+    status, out, err = cli(capsys, *args, "-o", tmp_path / "o.json", "--svg",
+                           tmp_path / "o.svg", "--plot", tmp_path / "o.png")
+    assert status == 0, err
+    assert err == ""  # --quiet: no progress display
+    assert "contour 1 of 2: 200 samples" in out and "contour 2 of 2: 200 samples" in out
+    assert out.count("status     converged") == 2
+    status, out2, err = cli(capsys, *args, "-o", tmp_path / "o.csv")
+    assert status == 0, err
+    written = (tmp_path / "o.csv").read_text().split("\n\n")
+    assert len(written) == 2
+    for i, block in enumerate(written):
+        saved = json.loads((tmp_path / f"o-{i + 1}.json").read_text())
+        assert saved["scheme"]["type"] == "CubicBSpline"
+        assert saved["info"]["contour"] == i + 1 and saved["info"]["contours"] == 2
+        control = np.array(saved["control_points"])
+        # The second run fitted the same control points.
+        rebuilt = js.io.read_result_json(tmp_path / f"o-{i + 1}.json")
+        np.testing.assert_array_equal(rebuilt.control_points, control)
+        # The curve written by the second run is the limit curve of the saved control
+        # points at the dyadic parameters of the saved levels, by library ...
+        points = np.array([[float(v) for v in line.split(",")]
+                           for line in block.splitlines() if line and not line.startswith("#")])
+        again = js.limit_points(js.refine(control, rebuilt.scheme, rebuilt.levels),
+                                rebuilt.scheme)
+        np.testing.assert_allclose(points, np.asarray(again), rtol=0, atol=1e-12)
+        # ... and by scipy's cubic B-spline.
+        spline = periodic_bspline(control, 3)
+        per_unit = len(points) // len(control)
+        shift = _parameter_shift(spline, points[0], len(control), 0.5 / per_unit)
+        expected = spline(shift + np.arange(len(points)) / per_unit)
+        assert np.abs(points - expected).max() < 1e-12
+        assert _check_bezier_svg(tmp_path / f"o-{i + 1}.svg", control, 3) < 1e-9
+    assert _pixels_vary(tmp_path / "o.png")
+
+
+def test_fit_that_does_not_converge_exits_1_and_says_which(capsys, tmp_path):
+    source = tmp_path / "circle.npy"
+    np.save(source, _circle(100))
+    status, out, err = cli(capsys, "fit", source, "--scheme", "four-point", "--fit-params",
+                           "--n", 10, "--max-steps", 3, "--quiet", "-o", tmp_path / "w.json")
+    assert status == 1
+    (line,) = err.strip().splitlines()
+    assert line.startswith("jaxsubdiv fit: contour 1 of 1 did not converge (")
+    assert line.endswith(") after 3 steps")
+    w = float(re.search(r"scheme     four-point \(w=(\S+)\)", out).group(1))
+    saved = json.loads((tmp_path / "w.json").read_text())
+    assert saved["scheme"]["type"] == "FourPoint"
+    np.testing.assert_allclose(saved["scheme"]["parameters"]["w"], w, rtol=1e-5)
+    assert 0 < w < 0.19 and saved["info"]["status"] != 0 and saved["info"]["num_steps"] == 3
+
+
+def test_demo_fits_prints_its_error_and_writes_a_picture(capsys, tmp_path):
     png = tmp_path / "demo.png"
-    out = run("demo", "--n", "16", "--samples", "200", "-o", str(png))
-    assert out.returncode == 0, out.stderr
-    assert "status     converged" in out.stdout
-    size = float(re.search(r"size ([0-9.e-]+)\)", out.stdout).group(1))
-    rms = float(re.search(r"rms error  ([0-9.e-]+) \(([0-9.e-]+) of the size", out.stdout).group(1))
-    relative = float(re.search(r"rms error  [0-9.e-]+ \(([0-9.e-]+) of the size", out.stdout).group(1))
+    status, out, err = cli(capsys, "demo", "--n", 16, "--samples", 200, "-o", png)
+    assert status == 0, err
+    assert "status     converged" in out
+    size = float(re.search(r"size ([0-9.e-]+)\)", out).group(1))
+    rms = float(re.search(r"rms error  ([0-9.e-]+) \(([0-9.e-]+) of the size", out).group(1))
+    relative = float(re.search(r"rms error  [0-9.e-]+ \(([0-9.e-]+) of the size", out).group(1))
     # The DejaVu 'S' is about 0.91 units tall and wide; 16 control points fit it to
     # well under 1% (scipy's splprep with 16 coefficients: ~1e-2 of the size).
     assert 0.5 < size < 1.5
@@ -30,80 +193,259 @@ def test_demo_fits_prints_its_error_and_writes_a_picture(tmp_path):
     np.testing.assert_allclose(relative, rms / size, rtol=1e-2)
     image = matplotlib.image.imread(png)
     assert image.shape[0] > 200 and image.shape[1] > 200
-    assert image[..., :3].std() > 0.05  # not blank
+    assert _pixels_vary(png)
 
 
-def test_bad_arguments_give_one_line_and_status_2(tmp_path):
-    out = run("demo", "--n", "64", "--samples", "100", "-o", str(tmp_path / "x.png"))
-    assert out.returncode == 2
-    lines = out.stderr.strip().splitlines()
-    assert len(lines) == 1 and "--samples" in lines[0]
-    out = run("demo", "--text", " ", "-o", str(tmp_path / "x.png"))
-    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1
+# -------------------------------------------------------------------------- refine
 
 
-def _csv_points(path):
-    lines = path.read_text().splitlines()
-    rows = [line for line in lines if line.strip() and not line.startswith("#")]
-    return np.array([[float(v) for v in line.split(",")] for line in rows])
+STAR = js.shapes.get("star")
 
 
-def test_refine_file_matches_plain_python_chaikin(tmp_path):
-    from helpers import chaikin_python
+def _write_input(path, kind, points):
+    """`points` (closed) in each input format, written without jaxsubdiv."""
+    if kind == "csv":
+        rows = "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in points)
+        path.write_text("# star\nx,y\n" + rows)
+    elif kind == "txt":
+        path.write_text("".join(f"{float(x)!r}   {float(y)!r}\n" for x, y in points))
+    elif kind == "npy":
+        np.save(path, points)
+    elif kind == "npz":
+        np.savez(path, outline=points)
+    elif kind == "json":
+        path.write_text(json.dumps({"points": points.tolist(), "closed": True}))
+    elif kind == "svg":  # y down in SVG: flip; a relative path
+        start, steps = points[0] * [1, -1], np.diff(points * [1, -1], axis=0)
+        lines = " ".join(f"l {float(x)!r} {float(y)!r}" for x, y in steps)
+        d = f"m {float(start[0])!r},{float(start[1])!r} {lines} z"
+        path.write_text(f'<svg xmlns="http://www.w3.org/2000/svg"><path d="{d}"/></svg>')
+    elif kind == "svg-polygon":
+        flipped = " ".join(f"{float(x)!r},{float(-y)!r}" for x, y in points)
+        path.write_text(f'<svg xmlns="http://www.w3.org/2000/svg"><g><polygon points="{flipped}"/>'
+                        "</g></svg>")
 
+
+def _read_output(path):
+    """The single outline of an output file, parsed without jaxsubdiv."""
+    kind = path.suffix[1:]
+    if kind in ("csv", "txt"):
+        return _table(path)
+    if kind == "npy":
+        return np.load(path)
+    if kind == "npz":
+        return np.load(path)["points"]
+    if kind == "json":
+        return np.array(json.loads(path.read_text())["points"])
+    (segments,) = svg_bezier_paths(path.read_text())  # straight segments: the polyline
+    return np.array([s[0] for s in segments])
+
+
+@pytest.mark.parametrize(
+    ("kind", "output"),
+    [("csv", "csv"), ("txt", "txt"), ("npy", "npy"), ("npz", "npz"), ("json", "json"),
+     ("svg", "svg"), ("svg-polygon", "csv")],
+)
+def test_refine_reads_and_writes_every_point_format(capsys, tmp_path, kind, output):
+    source = tmp_path / f"star.{kind.split('-')[0]}"
+    _write_input(source, kind, STAR)
+    out = tmp_path / f"refined.{output}"
+    status, stdout, err = cli(capsys, "refine", source, "--scheme", "chaikin", "--levels", 2,
+                              "-o", out)
+    assert status == 0, err
+    count = js.refined_count(len(STAR), js.Chaikin(), 2)
+    assert stdout.splitlines()[0] == f"10 -> {count} points (closed)"
+    np.testing.assert_allclose(_read_output(out), chaikin_python(STAR, 2, closed=True),
+                               rtol=0, atol=1e-12)
+
+
+def test_refine_png_silhouette(capsys, tmp_path):
+    # A dark 40 x 40 square on white, rows 10-49 and columns 20-59 of a 60 x 80 image:
+    # its outline (y up: pixel (r, c) is (c, 59 - r)) runs half a pixel outside them.
+    image = np.ones((60, 80, 3))
+    image[10:50, 20:60] = 0.0
+    source = tmp_path / "square.png"
+    matplotlib.image.imsave(source, image)
+    out = tmp_path / "refined.npy"
+    status, stdout, err = cli(capsys, "refine", source, "--scheme", "chaikin", "--levels", 1,
+                              "-o", out, "--plot", tmp_path / "plot.png")
+    assert status == 0, err
+    before, after = map(int, re.match(r"(\d+) -> (\d+) points", stdout).groups())
+    assert after == js.refined_count(before, js.Chaikin(), 1) == 2 * before
+    points = np.load(out)
+    assert len(points) == after
+    # Chaikin keeps the middles of the straight edges: the box is the square's outline.
+    np.testing.assert_allclose(points.min(axis=0), [19.5, 9.5], atol=1e-9)
+    np.testing.assert_allclose(points.max(axis=0), [59.5, 49.5], atol=1e-9)
+    assert _pixels_vary(tmp_path / "plot.png")
+
+
+def test_refine_text_glyph_has_one_outline_per_contour(capsys, tmp_path):
+    from matplotlib.textpath import TextPath
+
+    out = tmp_path / "o.npz"
+    status, stdout, err = cli(capsys, "refine", "--text", "o", "--font", "DejaVu Sans",
+                              "--scheme", "cubic-bspline", "--levels", 1, "-o", out)
+    assert status == 0, err
+    assert stdout.splitlines()[:2] == ["400 -> 800 points (closed)"] * 2
+    data = np.load(out)
+    outer = max((data["points_0"], data["points_1"]), key=lambda p: np.ptp(p, axis=0).prod())
+    # The refined outer contour spans the glyph's extent (matplotlib's own), less the
+    # little that smoothing 400 samples takes off.
+    extents = TextPath((0, 0), "o", size=1.0).get_extents()
+    np.testing.assert_allclose(outer.min(axis=0), [extents.x0, extents.y0], atol=2e-3)
+    np.testing.assert_allclose(outer.max(axis=0), [extents.x1, extents.y1], atol=2e-3)
+
+
+def test_refine_file_matches_plain_python_chaikin(capsys, tmp_path):
     square = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]])
     source = tmp_path / "square.csv"
     source.write_text("x,y\n" + "".join(f"{x},{y}\n" for x, y in square))
     out, png = tmp_path / "out.csv", tmp_path / "plot.png"
-    result = run("refine", str(source), "--scheme", "chaikin", "--levels", "3",
-                 "-o", str(out), "--plot", str(png))
-    assert result.returncode == 0, result.stderr
-    np.testing.assert_allclose(_csv_points(out), chaikin_python(square, 3, closed=True), atol=1e-12)
-    assert matplotlib.image.imread(png)[..., :3].std() > 0.05
+    status, _, err = cli(capsys, "refine", source, "--scheme", "chaikin", "--levels", 3,
+                         "-o", out, "--plot", png)
+    assert status == 0, err
+    np.testing.assert_allclose(_table(out), chaikin_python(square, 3, closed=True), atol=1e-12)
+    assert _pixels_vary(png)
 
 
-def test_refine_builtin_shape_four_point_keeps_its_points(tmp_path):
-    import json
-
-    import jaxsubdiv as js
-
+def test_refine_builtin_shape_four_point_keeps_its_points(capsys, tmp_path):
     out = tmp_path / "star.json"
-    result = run("refine", "--shape", "star", "--scheme", "four-point", "--w", "0.1",
-                 "--levels", "3", "-o", str(out))
-    assert result.returncode == 0, result.stderr
+    status, _, err = cli(capsys, "refine", "--shape", "star", "--scheme", "four-point",
+                         "--w", 0.1, "--levels", 3, "-o", out)
+    assert status == 0, err
     points = np.array(json.loads(out.read_text())["points"])
-    star = js.shapes.get("star")
-    assert points.shape == (8 * len(star), 2)
-    np.testing.assert_allclose(points[::8], star, atol=1e-12)  # interpolating scheme
+    assert points.shape == (8 * len(STAR), 2)
+    np.testing.assert_allclose(points[::8], STAR, atol=1e-12)  # interpolating scheme
 
 
-def test_analyze_prints_closed_forms():
-    result = run("analyze", "--scheme", "cubic-bspline")
-    assert result.returncode == 0, result.stderr
-    assert "eigenvalues        [1, 0.5, 0.25]" in result.stdout
-    assert "limit stencil      [0.166667, 0.666667, 0.166667]" in result.stdout
-    assert "C^2, not C^3" in result.stdout
+# ---------------------------------------------------------------- analyze, gallery
+
+
+def test_analyze_prints_closed_forms(capsys):
+    status, out, _ = cli(capsys, "analyze", "--scheme", "cubic-bspline")
+    assert status == 0
+    assert "eigenvalues        [1, 0.5, 0.25]" in out
+    assert "limit stencil      [0.166667, 0.666667, 0.166667]" in out
+    assert "C^2, not C^2" not in out and "C^2, not C^3" in out
     # Corner cutting off the line s - r = 1/2 is continuous but not C1.
-    result = run("analyze", "--scheme", "corner-cutting", "--r", "0.3", "--s", "0.7")
-    assert result.returncode == 0 and "C^0, not C^1" in result.stdout
+    status, out, _ = cli(capsys, "analyze", "--scheme", "corner-cutting", "--r", 0.3,
+                         "--s", 0.7)
+    assert status == 0 and "C^0, not C^1" in out
 
 
-def test_command_errors_are_one_line_with_status_2(tmp_path):
-    bad_csv = tmp_path / "bad.csv"
-    bad_csv.write_text("1,2\n3,x\n")
-    clamped = tmp_path / "ok.csv"
-    clamped.write_text("0,0\n1,0\n1,1\n0,1\n")
+def test_gallery_writes_rows_and_an_index(capsys, tmp_path):
+    # U is the paper's (four-point, Figure 5.2); the square is not, so it gets all three.
+    status, out, err = cli(capsys, "gallery", "-o", tmp_path / "g", "--shapes", "U",
+                           "--shapes", "square", "--levels", "0,14")
+    assert status == 0, err
+    names = ["U-four-point", "square-chaikin", "square-corner-cutting", "square-four-point"]
+    assert sorted(p.name for p in (tmp_path / "g").iterdir()) == sorted(
+        [f"{n}.png" for n in names] + ["index.md"]
+    )
+    for name in names:
+        image = matplotlib.image.imread(tmp_path / "g" / f"{name}.png")
+        assert image.shape[1] > 1.5 * image.shape[0]  # a row of two panels
+        assert image[..., :3].std() > 0.05
+    index = (tmp_path / "g" / "index.md").read_text()
+    assert "## U, four-point (seed paper, Figure 5.2)" in index
+    assert "## square, corner cutting\n" in index
+    assert all(f"({n}.png)" in index for n in names)
+    # Level 14 has 229,376 points for U and 65,536 for the square: more than the 50,000
+    # refined outright, so drawn from limit points.
+    assert index.count("level 14 (229,376 points) drawn as the exact limit curve") == 1
+    assert index.count("level 14 (65,536 points) drawn as the exact limit curve") == 3
+    assert "below a pixel" in index and index.count("the scheme interpolates") == 2
+    assert "C^0, not C^1" in index  # corner cutting (0.3, 0.7), as jaxsubdiv.smoothness says
+
+
+def test_every_subcommand_has_help(capsys):
+    for command in ("refine", "fit", "analyze", "gallery", "demo"):
+        status, out, _ = cli(capsys, command, "--help")
+        assert status == 0 and out.startswith(f"usage: jaxsubdiv {command}")
+
+
+# ------------------------------------------------------------------------- errors
+
+
+def test_bad_input_is_one_line_and_status_2(capsys, tmp_path):
+    files = {
+        "empty.csv": "",
+        "comments.csv": "# nothing here\nx,y\n",
+        "three.csv": "0,0,0\n1,0,0\n1,1,0\n",
+        "words.csv": "0,0\n1,zero\n1,1\n",
+        "nopath.svg": '<svg xmlns="http://www.w3.org/2000/svg"><circle r="1"/></svg>',
+        "notxml.svg": "<svg",
+        "nopoints.json": '{"closed": true}',
+        "garbage.png": "not a png",
+        "binary.csv": None,
+        "few.csv": "0,0\n1,0\n1,1\n0,1\n",
+    }
+    for name, text in files.items():
+        if text is None:
+            (tmp_path / name).write_bytes(b"\xff\xfe\x00\x01" * 8)
+        else:
+            (tmp_path / name).write_text(text)
+    np.save(tmp_path / "cols.npy", np.zeros((5, 3)))
+    (tmp_path / "dir.csv").mkdir()
+    ok, shape = str(tmp_path / "few.csv"), ("--shape", "star")
     cases = [
-        ("refine", str(tmp_path / "missing.csv")),
-        ("refine", str(bad_csv)),
+        ("refine", tmp_path / "missing.csv"),
+        ("fit", tmp_path / "missing.csv"),
+        ("refine", tmp_path / "dir.csv"),  # unreadable: a directory
+        ("refine", tmp_path / "binary.csv"),  # unreadable: not text
+        ("refine", tmp_path / "empty.csv"),
+        ("fit", tmp_path / "comments.csv"),
+        ("refine", tmp_path / "three.csv"),  # wrong column count
+        ("refine", tmp_path / "cols.npy"),
+        ("refine", tmp_path / "words.csv"),  # non-numeric
+        ("refine", tmp_path / "nopath.svg"),
+        ("fit", tmp_path / "notxml.svg"),
+        ("refine", tmp_path / "nopoints.json"),
+        ("refine", tmp_path / "garbage.png"),
+        ("refine", tmp_path / "outline.xyz"),  # unknown format
         ("refine", "--shape", "teapot"),
-        ("refine", "--shape", "star", "--scheme", "nope"),
-        ("refine", "--shape", "star", "--scheme", "chaikin", "--w", "0.1"),
-        ("refine", str(clamped), "--scheme", "daubechies", "--boundary", "clamped"),
-        ("refine",),
-        ("analyze", "--scheme", "four-point", "--w", "0.3"),
+        ("refine", *shape, "--scheme", "nope"),  # unknown scheme
+        ("fit", *shape, "--frobnicate"),  # unknown option
+        ("fit", *shape, "--n", "many"),
+        ("refine", *shape, "--scheme", "chaikin", "--w", 0.1),  # impossible combinations
+        ("fit", *shape, "--scheme", "cubic-bspline", "--r", 0.2),
+        ("fit", *shape, "--fit-params"),  # cubic B-spline has no parameters
+        ("fit", ok, "--n", 8),  # more control points than the samples allow
+        ("fit", *shape, "--samples", 20, "--n", 16),
+        ("fit", ok, *shape),  # two inputs
+        ("fit",),  # no input
+        ("refine", "--text", "o", "--font", "No Such Font Family"),
+        ("refine", ok, "--font", "DejaVu Sans"),  # --font without --text
+        ("refine", "--text", "   "),
+        ("refine", ok, "--scheme", "daubechies", "--boundary", "clamped"),
+        ("fit", *shape, "-o", tmp_path / "out.xyz"),
+        ("fit", *shape, "-o", tmp_path / "nowhere" / "out.json"),
+        ("fit", *shape, "--plot", tmp_path / "fit.doc"),
+        ("fit", "--text", "o", "-o", tmp_path / "two.npy"),  # two contours, one .npy
+        ("analyze", "--scheme", "four-point", "--w", 0.3),
+        ("gallery", "-o", tmp_path / "g", "--shapes", "teapot"),
+        ("gallery", "-o", tmp_path / "g", "--levels", "0,x"),
+        ("gallery",),  # -o is required
+        ("demo", "--n", 64, "--samples", 100, "-o", tmp_path / "x.png"),
+        ("demo", "--text", " ", "-o", tmp_path / "x.png"),
     ]
     for args in cases:
-        result = run(*args)
-        assert result.returncode == 2, (args, result.stdout, result.stderr)
-        assert len(result.stderr.strip().splitlines()) == 1, (args, result.stderr)
+        status, out, err = cli(capsys, *args)
+        assert status == 2, (args, out, err)
+        lines = err.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("jaxsubdiv"), (args, err)
+        assert "Traceback" not in err
+    # The messages say what is wrong.
+    assert "no such file" in cli(capsys, "refine", tmp_path / "missing.csv")[2]
+    assert "expected 2 values" in cli(capsys, "refine", tmp_path / "three.csv")[2]
+    assert "--w does not apply to --scheme chaikin" in cli(
+        capsys, "refine", *shape, "--scheme", "chaikin", "--w", 0.1)[2]
+    assert "--n 8 is too many control points" in cli(capsys, "fit", ok, "--n", 8)[2]
+
+
+def test_bad_input_from_the_installed_script(tmp_path):
+    result = run("fit", tmp_path / "missing.csv", "--n", 8)
+    assert result.returncode == 2
+    assert result.stderr == f"jaxsubdiv fit: error: {tmp_path / 'missing.csv'}: no such file.\n"
+    assert result.stdout == ""
