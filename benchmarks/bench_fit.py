@@ -23,7 +23,7 @@ its curve is evaluated densely and compared with the samples by brute force
 
 Batched throughput: 1,000 outlines of 400 samples made by perturbing the three shapes
 (random affine map, a small radial wobble, noise of 1e-3 of the size),
-`fitting.fit_batch` (n = 16, its default `max_steps` = 100) on the first 10, 100 and
+`fitting.fit_batch` (n = 16, `max_steps` = 200, its default) on the first 10, 100 and
 1,000 of them against a Python loop of `fitting.fit` with the same settings over the
 first 50, scaled to the batch size. The 1,000-item batch takes minutes, so it is run
 once and its compile time subtracted (see `run_batch`).
@@ -273,16 +273,20 @@ def run_single(shapes, ns, repeats, scipy_repeats):
     return rows
 
 
+#: Step limit of the batch and of the loop it is compared with (fit_batch's default).
+BATCH_STEPS = 200
+
+
 def run_batch(targets, n, sizes, loop_count, save):
     """`sizes`: (items, warm repeats) pairs; 0 repeats: one call only, see below. The
     loop runs first (it is short), so that every batch size can be compared with it as
     soon as it is measured; `save(out)` is called after each size, so a long run leaves
     its results so far."""
-    out = dict(n=n, samples=targets.shape[1], max_steps=100, sizes=[], loop={})
-    # The loop: same settings as fit_batch (max_steps=100), warm (compiled by the first).
+    out = dict(n=n, samples=targets.shape[1], max_steps=BATCH_STEPS, sizes=[], loop={})
+    # The loop: the same settings as fit_batch, warm (compiled by the first call).
     subset = targets[:loop_count]
-    fit_one(subset[0], n, max_steps=100)
-    seconds, single = timed(lambda: [fit_one(t, n, max_steps=100) for t in subset])
+    fit_one(subset[0], n, max_steps=BATCH_STEPS)
+    seconds, single = timed(lambda: [fit_one(t, n, max_steps=BATCH_STEPS) for t in subset])
     out["loop"] = dict(
         items_timed=loop_count, seconds=seconds, fits_per_second=loop_count / seconds,
         converged=int(sum(bool(r.converged) for r in single)),
@@ -291,7 +295,8 @@ def run_batch(targets, n, sizes, loop_count, save):
           f"({out['loop']['fits_per_second']:.1f} fits/s)", flush=True)
     for size, repeats in sizes:
         batch = targets[:size]
-        call = lambda: fitting.fit_batch(batch, SCHEME, n, on_failure="ignore")
+        call = lambda: fitting.fit_batch(batch, SCHEME, n, max_steps=BATCH_STEPS,
+                                         on_failure="ignore")
         first, result = timed(call)
         if repeats:
             warm, times, result = median_time(call, repeats)
@@ -472,7 +477,7 @@ def main():
 
     jax.block_until_ready(jax.numpy.ones(2) + 1)  # start the backend outside the timings
     data["single"] = run_single(shapes, ns, repeats, scipy_repeats)
-    save(dict(n=batch_n, samples=400, max_steps=100, sizes=[], loop={}))
+    save(dict(n=batch_n, samples=400, max_steps=BATCH_STEPS, sizes=[], loop={}))
     targets = perturbed_outlines(list(shapes.values()) if args.smoke else
                                  [glyph_outline("S"), glyph_outline("a"), superellipse()],
                                  max(size for size, _ in batch_sizes))

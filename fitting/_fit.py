@@ -15,9 +15,11 @@ from jaxsubdiv._misc import as_float_array, is_traced, static_int
 from jaxsubdiv._refine import _min_points
 
 from . import _progress
-from ._curve import curve_polyline, distances, foot_residual, project
-from ._init import initial_control, order_samples, second_differences
+from ._curve import curve_basis, distances, evaluate, locate
+from ._init import initial_control, order_samples
+from ._objective import BACK_WEIGHT as BACK_WEIGHT, Objective
 from ._params import fitted_names, from_unconstrained, to_unconstrained
+from ._solver import FootPointLevenbergMarquardt
 
 
 # Our status codes are optimistix's result names, in this order (0 = success).
@@ -39,7 +41,9 @@ _MESSAGES = {
     if hasattr(optx.RESULTS, name)
 }
 
-SOLVERS = ("levenberg-marquardt", "gauss-newton", "dogleg", "bfgs")
+SOLVERS = (
+    "levenberg-marquardt", "optimistix-levenberg-marquardt", "gauss-newton", "dogleg", "bfgs"
+)
 
 
 class FitResult(eqx.Module):
@@ -47,9 +51,11 @@ class FitResult(eqx.Module):
 
     All array fields carry a leading batch axis for `fit_batch`. Distances are in the
     target's units and *two-sided*: target to curve (each sample's distance to the limit
-    curve) and curve to target (each curve point's distance to the polyline through the
-    ordered samples), so a curve that wanders away from the data between samples is
-    caught. `rms` and `max_error` are the larger of the two directions.
+    curve: to its Hermite model, within O(h^4) of it, for C^1 schemes, else to the
+    chords between the exact samples in `curve`) and curve to target (each point of
+    `curve` to the polyline through the ordered samples), so a curve that wanders away
+    from the data between samples is caught. `rms` and `max_error` are the larger of the
+    two directions.
 
     **Fields:**
 
@@ -92,11 +98,15 @@ class FitResult(eqx.Module):
 
 
 def _make_solver(solver, rtol: float, atol: float, progress: bool = False):
+    """None for the default (built inside the fit, which knows the problem's structure),
+    else an optimistix solver."""
+    if solver is None or solver == "levenberg-marquardt":
+        return None
     # Normal equations + Cholesky: 14-200x faster than the default QR on small,
     # well-conditioned control-point problems, with the same steps (shared notes, d2).
     normal = lx.Normal(lx.Cholesky())
     verbose = _progress.progress_verbose if progress else False
-    if solver is None or solver == "levenberg-marquardt":
+    if solver == "optimistix-levenberg-marquardt":
         return optx.LevenbergMarquardt(rtol, atol, linear_solver=normal, verbose=verbose)
     if solver == "gauss-newton":
         return optx.GaussNewton(rtol, atol, linear_solver=normal, verbose=verbose)
@@ -117,16 +127,13 @@ def _make_solver(solver, rtol: float, atol: float, progress: bool = False):
     )
 
 
-def default_levels(n: int, m: int) -> int:
-    """Enough levels for a polyline of at least max(1024, 4m) points."""
-    return max(2, math.ceil(math.log2(max(1024, 4 * m) / n)))
+def default_levels(n: int, m: int, hermite: bool) -> int:
+    """Enough levels for at least max(512, 2m) curve samples joined by Hermite segments
+    (whose error is O(h^4) for smooth limits), or max(1024, 4m) joined by chords."""
+    samples = max(512, 2 * m) if hermite else max(1024, 4 * m)
+    return max(2, math.ceil(math.log2(samples / n)))
 
 
-#: Weight of the curve-to-target distances relative to the target-to-curve ones. They
-#: are measured to the chords between samples, which lie inside convex arcs by about
-#: h^2 kappa / 8, so a full weight would pull the curve inwards; 0.1 keeps that bias
-#: small (measured: the same two-sided error on glyphs as weight 1).
-BACK_WEIGHT = 0.1
 
 
 def _status(result) -> Array:
@@ -137,11 +144,35 @@ def _status(result) -> Array:
     return code
 
 
+def _uses_tangents(scheme, names, boundary) -> bool:
+    """Whether the fit can use the scheme's exact limit tangents (a C1 Hermite curve).
+
+    Needs a C^1 limit at every parameter the solver may visit: the concrete scheme is
+    checked with `jaxsubdiv.smoothness`; fitted parameters must stay in a C^1 range by
+    construction (four-point w in (0, 0.19), split-and-tweak t in (0, 1)), and traced values
+    of w or t are assumed to lie there; corner cutting is only C^0 for most (r, s), so
+    fitting r or s uses chords. Clamped ends have no tangent rule yet.
+    """
+    if boundary == "clamped":
+        return False
+    if names and not isinstance(scheme, (js.FourPoint, js.SplitTweak)):
+        return False
+    if any(is_traced(leaf) for leaf in jax.tree.leaves(eqx.filter(scheme, eqx.is_array))):
+        # Values unknown (e.g. differentiating the fit with respect to w): assume the
+        # ranges above, so that the model, and the optimum, are the same as for
+        # concrete values in them.
+        return isinstance(scheme, (js.FourPoint, js.SplitTweak))
+    # Concrete parameters: certify on the host, also when called inside a trace.
+    with jax.ensure_compile_time_eval():
+        return js.smoothness(scheme).continuity >= 1
+
+
 def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, names,
-             solver, max_steps, smooth_rows):
+             solver, tol, max_steps, smooth_rows, hermite, progress=False):
     """Fit one target (pure JAX; `fit` and `fit_batch` jit and vmap this)."""
     closed = boundary == "closed"
     dtype = target.dtype
+    m = target.shape[0]
     # Samples with zero weight (including the padding of ragged batches) are ignored.
     valid = weights > 0
     share = (valid / jnp.sum(valid)).astype(dtype)
@@ -149,66 +180,38 @@ def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, n
     scale = jnp.sqrt(share @ jnp.sum((target - center) ** 2, -1))
     scale = jnp.where(scale > 0, scale, 1.0)
     T = (target - center) / scale  # work in units of the outline's size
-    # Sum (not mean) of squared distances: with optimistix's initial LM damping of 1
-    # this scale took about half the steps of the mean (measured; see benchmarks/fit).
-    m_valid = jnp.sum(valid).astype(dtype)
-    w = weights * (m_valid / jnp.sum(weights))
     if init is None:
-        P0 = initial_control(T, w, scheme, n, levels, boundary, smoothing)
+        P0 = initial_control(T, weights, scheme, n, levels, boundary, smoothing)
     else:
         P0 = (init - center) / scale
     y0 = {"control": jax.lax.stop_gradient(P0), "params": to_unconstrained(scheme, names)}
     N = js.refined_count(n, scheme, levels, boundary)
-    coarse = max(1, min(8, N // 64))
-    index = jnp.arange(target.shape[0])
-    first, last = jnp.min(jnp.where(valid, index, index.size)), jnp.max(jnp.where(valid, index, -1))
-
-    stride = max(1, N // (8 * n))
-    count = len(range(0, N, stride))
-    coarse_target = max(1, min(8, target.shape[0] // 64))
-    curve_index = jnp.arange(count)
-
-    def pin_curve_ends(segment, fraction):
-        segment = jnp.where(curve_index == 0, first, jnp.where(curve_index == count - 1, last - 1, segment))
-        fraction = jnp.where(curve_index == 0, 0.0, jnp.where(curve_index == count - 1, 1.0, fraction))
-        return segment, fraction
-
-    def pin_ends(segment, fraction, size):
-        # An open curve must start and end where the data do: match the first and last
-        # samples to its end points (otherwise its ends may run past the data freely).
-        segment = jnp.where(index <= first, 0, jnp.where(index >= last, size - 2, segment))
-        fraction = jnp.where(index <= first, 0.0, jnp.where(index >= last, 1.0, fraction))
-        return segment, fraction
-    D = second_differences(n, closed, dtype)
-
-    def residuals(y, args):
-        T, w, base, smoothing = args
-        current = from_unconstrained(base, names, y["params"])
-        X = curve_polyline(y["control"], current, levels, boundary)
-        segment, fraction = project(T, X, closed, coarse)
-        if not closed:
-            segment, fraction = pin_ends(segment, fraction, X.shape[0])
-        e = foot_residual(T, X, segment, fraction, closed) * jnp.sqrt(w)[:, None]
-        # Curve to target: every `stride`-th curve point to the polyline through the
-        # samples, so that no part of the curve can wander away from the data.
-        C = X[::stride]
-        segment, fraction = project(C, T, closed, coarse_target)
-        if not closed:
-            segment, fraction = pin_curve_ends(segment, fraction)
-        # Weighted so that both directions count alike (each sums to m mean squares).
-        back = foot_residual(C, T, segment, fraction, closed) * jnp.sqrt(BACK_WEIGHT * m_valid / C.shape[0])
-        if not smooth_rows:
-            return e, back
-        return e, back, jnp.sqrt(smoothing / n) * (D @ y["control"])
-
+    objective = Objective(n=n, levels=levels, boundary=boundary, names=names, hermite=hermite,
+                          smooth_rows=smooth_rows, num_curve=N, num_target=m)
+    if solver is None:
+        # Stop when an accepted step lowers the loss (a sum of m squared distances) by
+        # less than `tol` of itself, or the loss is below m tol^2 (RMS distance `tol`).
+        solver = FootPointLevenbergMarquardt(
+            rtol=tol, atol=m * tol**2, model=objective.quadratic_model,
+            verbose=_progress.progress_verbose if progress else None,
+        )
     sol = optx.least_squares(
-        residuals, solver, y0, args=(T, w, scheme, smoothing), max_steps=max_steps,
-        throw=False,
+        objective.residuals, solver, y0, args=(T, weights, scheme, smoothing),
+        max_steps=max_steps, throw=False,
     )
     fitted = from_unconstrained(scheme, names, sol.value["params"])
     P = sol.value["control"]
-    X = curve_polyline(P, fitted, levels, boundary)
-    t2c = jnp.where(valid, distances(T, X, closed) * scale, 0.0)
+    A, V = curve_basis(fitted, n, levels, boundary, dtype, hermite)
+    X = A @ P
+    if hermite:
+        # Distances to the Hermite curve at freshly found feet (each a point of the curve,
+        # so never below the true distance to it).
+        tau = locate(T, X, V @ P, closed, coarse=max(1, min(8, N // 64)))
+        feet, _ = evaluate(X, V @ P, tau, closed)
+        t2c = jnp.sqrt(jnp.sum((feet - T) ** 2, -1))
+    else:
+        t2c = distances(T, X, closed)
+    t2c = jnp.where(valid, t2c * scale, 0.0)
     c2t = distances(X, T, closed) * scale
     rms_t2c, rms_c2t = jnp.sqrt(share @ t2c**2), jnp.sqrt(jnp.mean(c2t**2))
     return FitResult(
@@ -273,7 +276,10 @@ def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights,
             f"{d} coordinates" + (f" + {len(names)} scheme parameters" if names else "")
             + "); give at least as many samples as unknowns, or fewer control points."
         )
-    levels = default_levels(n, m) if levels is None else static_int(levels, "levels", minimum=1)
+    if levels is None:
+        levels = default_levels(n, m, _uses_tangents(scheme, names, boundary))
+    else:
+        levels = static_int(levels, "levels", minimum=1)
     if weights is None:
         weights = jnp.ones((m,), target.dtype)
     else:
@@ -353,7 +359,7 @@ def fit(
     fit_params: bool | str | tuple[str, ...] = False,
     init: Float[ArrayLike, "n d"] | None = None,
     solver=None,
-    max_steps: int = 200,
+    max_steps: int = 500,
     tol: float | None = None,
     weights: Float[ArrayLike, " m"] | None = None,
     smoothing: float = 0.0,
@@ -370,11 +376,16 @@ def fit(
     Gauss-Newton-type solvers converge fast instead of alternating slowly.
 
     How: the samples are centered and scaled to unit size; control points start from a
-    linear least-squares fit at chord-length positions (lineax Cholesky); then an
-    optimistix solver (Levenberg-Marquardt by default, with normal equations and
-    Cholesky) minimises the distances to the limit curve, evaluated exactly at the
-    dyadic parameters of `levels` levels (see [`jaxsubdiv.limit_points`][]) and joined
-    by chords. Scheme parameters stay in their valid open ranges through a smooth
+    linear least-squares fit at chord-length positions (lineax Cholesky); then a
+    Levenberg-Marquardt iteration minimises the squared distances from the samples to
+    the limit curve plus a weak curve-to-samples term (see `fitting._objective`). The
+    curve is sampled exactly at the dyadic parameters of `levels` levels (see
+    [`jaxsubdiv.limit_points`][]) and, for $C^1$ schemes, joined by cubic Hermite segments
+    with the exact limit tangents ([`jaxsubdiv.limit_tangents`][]), otherwise by chords.
+    The default solver is an optimistix least-squares solver written for this problem:
+    it assembles the exact Hessian of the squared distances in closed form (the foot
+    points eliminated as in variable projection) instead of differentiating a black
+    box. Scheme parameters stay in their valid open ranges through a smooth
     reparameterisation (see `fitting._params`).
 
     Works under `jax.jit` (`eqx.filter_jit`) and with `jax.grad`/`jacrev`/`jacfwd` with
@@ -388,18 +399,23 @@ def fit(
     - `scheme`: a curve scheme; its parameters are the fixed values, or the starting
       values when they are fitted.
     - `n_control`: number of control points (static).
-    - `levels`: levels of the polyline the distances are measured to (static; default:
-      enough for at least max(1024, 4m) curve points).
+    - `levels`: levels at which the curve is sampled exactly (static; default: enough
+      for at least max(512, 2m) samples joined by Hermite segments, or max(1024, 4m)
+      joined by chords).
     - `boundary`: `"closed"`, `"open"` or `"clamped"`, as in [`jaxsubdiv.refine`][].
     - `fit_params`: `False`, `True` (all of the scheme's parameters) or names such as
       `("w",)`. Fittable: `CornerCutting` r, s; `FourPoint` w (kept in
       (0, 0.19), where the scheme is C1); `SplitTweak` t.
     - `init`: starting control points `(n, d)` instead of the linear fit.
-    - `solver`: `"levenberg-marquardt"` (default), `"gauss-newton"`, `"dogleg"`,
-      `"bfgs"`, or any optimistix least-squares solver or minimiser.
+    - `solver`: `"levenberg-marquardt"` (default: the structured solver above),
+      `"optimistix-levenberg-marquardt"`, `"gauss-newton"`, `"dogleg"`, `"bfgs"`
+      (optimistix's own, on the same residuals, Jacobians by autodiff; slower), or any
+      optimistix least-squares solver or minimiser.
     - `max_steps`: solver step limit.
-    - `tol`: relative and absolute tolerance in units of the outline's size (default
-      1e-7 in float64, 1e-5 in float32).
+    - `tol`: the default solver stops when a step lowers the loss (a sum of squared
+      distances) by less than `tol` of itself, or the RMS distance is below `tol` of the
+      outline's size (default 1e-7 in float64, 1e-5 in float32); optimistix's solvers
+      use it as their `rtol` and `atol`.
     - `weights`: non-negative per-sample weights `(m,)`.
     - `smoothing`: weight of a second-difference penalty on the control points, relative
       to the mean squared distance (in units of the outline's size).
@@ -435,8 +451,9 @@ def fit(
     result = _fit_jit(
         target, weights, scheme, init, jnp.asarray(smoothing, target.dtype), n=n,
         levels=levels, boundary=boundary, names=names,
-        solver=_make_solver(solver, tol, tol, progress), max_steps=max_steps,
-        smooth_rows=smooth_rows,
+        solver=_make_solver(solver, tol, tol, progress), tol=tol, max_steps=max_steps,
+        smooth_rows=smooth_rows, hermite=_uses_tangents(scheme, names, boundary),
+        progress=progress,
     )
     if progress:
         jax.block_until_ready(result)
@@ -461,8 +478,27 @@ def _pad_ragged(targets, weights):
 
 
 def _batched(targets, weights, scheme, smoothing, **static):
-    solve = lambda t, w: _fit_one(t, w, scheme, None, smoothing, **static)
-    return jax.vmap(solve)(targets, weights)
+    """Fit `(devices, per_device, m, d)` targets: `vmap` over the device axis (which the
+    sharding splits, one slice per device), and one item after another within a device.
+
+    One after another (`lax.map`, a scan of single solves) rather than `vmap` over all
+    items: a batched solver loop runs every item until the slowest converges, and its
+    batched gathers and factorizations ran slower per item on CPU; measured 1.9x slower
+    than a Python loop of single fits (64 items), where `lax.map` matches the loop with
+    one dispatch for the whole batch.
+    """
+    progress = static.pop("progress", False)
+    count, per_device = targets.shape[:2]
+
+    def solve(item):
+        index, target, weight = item
+        result = _fit_one(target, weight, scheme, None, smoothing, progress=False, **static)
+        if progress:  # one line for the batch: outlines done, not every solver step
+            _progress.items_done(index, per_device, count)
+        return result
+
+    run = lambda t, w: jax.lax.map(solve, (jnp.arange(per_device), t, w))
+    return jax.vmap(run)(targets, weights)
 
 
 # Module level, so that repeated calls with the same shapes and settings reuse the
@@ -471,20 +507,24 @@ _batched_jit = eqx.filter_jit(_batched)
 
 
 def _run_batch(targets, weights, scheme, smoothing, static, devices):
-    if len(devices) == 1:
-        targets, weights = jax.device_put((targets, weights), devices[0])
-        return _batched_jit(targets, weights, scheme, smoothing, **static)
-    # Split the batch axis over the devices; XLA partitions the vmapped solve (SPMD).
     size = targets.shape[0]
-    extra = -size % len(devices)  # the batch must divide evenly over the devices
+    count = len(devices)
+    extra = -size % count  # the batch must divide evenly over the devices
     if extra:
         targets = jnp.concatenate([targets, jnp.repeat(targets[:1], extra, axis=0)])
         weights = jnp.concatenate([weights, jnp.repeat(weights[:1], extra, axis=0)])
-    mesh = jax.sharding.Mesh(np.array(devices), ("batch",))
-    sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("batch"))
-    targets, weights = jax.device_put((targets, weights), sharding)
+    split = lambda x: x.reshape((count, -1) + x.shape[1:])
+    targets, weights = split(targets), split(weights)
+    if count == 1:
+        targets, weights = jax.device_put((targets, weights), devices[0])
+    else:
+        # The device axis is split over the devices; XLA partitions the program (SPMD).
+        mesh = jax.sharding.Mesh(np.array(devices), ("batch",))
+        sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("batch"))
+        targets, weights = jax.device_put((targets, weights), sharding)
     result = _batched_jit(targets, weights, scheme, smoothing, **static)
-    return jax.tree.map(lambda x: x[:size], result) if extra else result
+    merge = lambda x: x.reshape((-1,) + x.shape[2:])[:size]
+    return jax.tree.map(lambda x: merge(x) if eqx.is_array(x) else x, result)
 
 
 def fit_batch(
@@ -496,7 +536,7 @@ def fit_batch(
     boundary: Literal["closed", "open", "clamped"] = "closed",
     fit_params: bool | str | tuple[str, ...] = False,
     solver=None,
-    max_steps: int = 100,
+    max_steps: int = 200,
     tol: float | None = None,
     weights=None,
     smoothing: float = 0.0,
@@ -564,15 +604,16 @@ def fit_batch(
         prepared.append((t, w))
     m_max = max(t.shape[0] for t, _ in prepared)
     if levels is None:
-        levels = default_levels(n, m_max)
+        levels = default_levels(n, m_max, _uses_tangents(scheme, names, boundary))
     stacked, stacked_weights = _pad_ragged([t for t, _ in prepared], [w for _, w in prepared])
     max_steps = static_int(max_steps, "max_steps", minimum=1)
     if tol is None:
         tol = 1e-7 if stacked.dtype == jnp.float64 else 1e-5
     static = dict(
         n=n, levels=levels, boundary=boundary, names=names,
-        solver=_make_solver(solver, tol, tol, progress), max_steps=max_steps,
-        smooth_rows=smooth_rows,
+        solver=_make_solver(solver, tol, tol, progress), tol=tol, max_steps=max_steps,
+        smooth_rows=smooth_rows, hermite=_uses_tangents(scheme, names, boundary),
+        progress=progress,
     )
     result = _run_batch(
         stacked, stacked_weights, scheme, jnp.asarray(smoothing, stacked.dtype), static,

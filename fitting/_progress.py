@@ -1,10 +1,9 @@
 """A one-line progress display for long fits and batches (off by default).
 
-optimistix calls a solver's `verbose` callable while tracing, with the step count and
-loss as traced values; a `jax.debug.callback` then prints them on the host at every
-step. Under `vmap` the values are reduced over the batch first (the most steps taken,
-the largest loss), so a batch shows one line, not one per item, as diffrax's progress
-meter does.
+A single fit: optimistix calls a solver's `verbose` callable while tracing, with the
+step count and loss as traced values; a `jax.debug.callback` then prints them on the
+host at every step (under `vmap` reduced over the batch first, so one line). A batch:
+one line counting the outlines done, updated as each finishes (`items_done`).
 """
 
 import sys
@@ -39,6 +38,25 @@ def progress_verbose(**kwargs):
     step = eqxi.unvmap_max(kwargs["num_steps"][1])
     loss = eqxi.unvmap_max(kwargs["loss_this_step"][1])
     jax.debug.callback(_show, step, loss, ordered=True)
+
+
+def _show_items(done, total):
+    now = time.perf_counter()
+    if int(done) <= 1:
+        _state["start"] = now
+    elif now - _state["last"] < 0.1 and int(done) < int(total):
+        return
+    _state["last"] = now
+    sys.stderr.write(
+        f"\r  fitting: {int(done):6d} / {int(total)} outlines  {now - _state['start']:6.1f} s"
+    )
+    sys.stderr.flush()
+
+
+def items_done(index, per_device, devices):
+    """Report that item `index` (counted from 0) of each device's share is done."""
+    done = (eqxi.unvmap_max(index) + 1) * devices
+    jax.debug.callback(_show_items, done, per_device * devices, ordered=True)
 
 
 def finish():

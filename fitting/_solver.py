@@ -1,0 +1,122 @@
+"""A Levenberg-Marquardt solver for the fit that takes its Jacobian from the problem.
+
+optimistix's `LevenbergMarquardt` builds the Jacobian of a black-box residual function by
+autodiff and solves the damped normal equations with lineax. The fit's residuals have a
+cheaper structure: with the foot points held fixed they are smooth, almost linear
+functions of the control points, so the problem can hand over its residuals and dense
+Jacobian in one pass (`Objective.linearize`), and a step is one small Cholesky solve.
+The solver is an ordinary optimistix least-squares solver, so `optimistix.least_squares`
+runs it: `max_steps`, `throw`, the result codes and the implicit adjoint work unchanged.
+
+Steps follow Nielsen's damping update (H. B. Nielsen, "Damping parameter in Marquardt's
+method", IMM-REP-1999-05): accept when the actual decrease is a positive fraction of the
+decrease the linear model predicts, and scale the damping by
+max(1/3, 1 - (2 rho - 1)^3) on acceptance and by a growing factor on rejection. The
+damping is Levenberg's (a multiple of the identity, relative to the mean of the normal
+matrix's diagonal), not Marquardt's diagonal scaling: points sliding along straight parts
+of the curve leave some diagonal entries near zero, and those directions need damping.
+
+It stops (successfully) when an accepted step lowers the loss by at most
+`rtol * loss + atol`, or when the loss is below `atol`.
+"""
+
+from collections.abc import Callable
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import optimistix as optx
+from jax.flatten_util import ravel_pytree
+from jaxtyping import Array, Bool, Float, Int
+
+
+class _State(eqx.Module):
+    loss: Float[Array, ""]
+    gradient: Float[Array, " D"]
+    hessian: Float[Array, "D D"]
+    damping: Float[Array, ""]
+    growth: Float[Array, ""]
+    num_steps: Int[Array, ""]
+    terminate: Bool[Array, ""]
+    result: optx.RESULTS
+
+
+class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
+    """Levenberg-Marquardt with a problem-supplied linearization (see module docstring).
+
+    `model(y, args)` returns the loss (a sum of squares), half its gradient and half its
+    Hessian (or a Gauss-Newton approximation), flattened in
+    `jax.flatten_util.ravel_pytree(y)` order; `fn` itself is only used by optimistix for
+    the implicit adjoint.
+    """
+
+    rtol: float
+    atol: float
+    model: Callable = eqx.field(static=True)
+    verbose: Callable | None = eqx.field(static=True, default=None)
+    norm: Callable = eqx.field(static=True, default=optx.max_norm)
+
+    def init(self, fn, y, args, options, f_struct, aux_struct, tags) -> _State:
+        loss, gradient, hessian = self.model(y, args)
+        dtype = loss.dtype
+        return _State(
+            loss=loss,
+            gradient=gradient,
+            hessian=hessian,
+            damping=jnp.asarray(1e-3, dtype),
+            growth=jnp.asarray(2.0, dtype),
+            num_steps=jnp.array(0),
+            terminate=jnp.array(False),
+            result=optx.RESULTS.successful,
+        )
+
+    def step(self, fn, y, args, options, state: _State, tags) -> tuple[Any, _State, None]:
+        flat, unravel = ravel_pytree(y)
+        H, g = state.hessian, state.gradient
+        size = H.shape[0]
+        scale = jnp.maximum(jnp.trace(H) / size, jnp.finfo(H.dtype).tiny)
+        factor = jax.scipy.linalg.cho_factor(H + state.damping * scale * jnp.eye(size, dtype=H.dtype))
+        delta = -jax.scipy.linalg.cho_solve(factor, g)
+        trial = unravel(flat + delta)
+        loss, gradient, hessian = self.model(trial, args)
+        predicted = -(2 * g @ delta + delta @ (H @ delta))
+        actual = state.loss - loss
+        ratio = actual / jnp.where(predicted > 0, predicted, 1.0)
+        finite = jnp.isfinite(loss) & jnp.all(jnp.isfinite(delta))
+        accept = finite & (predicted > 0) & (ratio > 1e-4)
+        damping = jnp.where(
+            accept,
+            state.damping * jnp.maximum(1 / 3, 1 - (2 * ratio - 1) ** 3),
+            state.damping * state.growth,
+        )
+        growth = jnp.where(accept, 2.0, 2 * state.growth).astype(state.growth.dtype)
+        done = accept & ((actual <= self.rtol * state.loss + self.atol) | (loss <= self.atol))
+        # The damping cannot grow without bound: past 1e16 of the matrix's scale the steps
+        # vanish in rounding: no step lowers the loss, which is then minimal to working
+        # precision (a success, as for optimistix's own termination).
+        stuck = ~accept & (damping > 1e16)
+        if callable(self.verbose):
+            self.verbose(num_steps=("Step", state.num_steps),
+                         loss_this_step=("Loss on this step", 0.5 * loss))
+        import os
+        if os.environ.get('FPDEBUG'):
+            jax.debug.print('step {} loss {} new {} pred {} ratio {} damp {} acc {}', state.num_steps, state.loss, loss, predicted, ratio, state.damping, accept)
+        keep = lambda new, old: jnp.where(accept, new, old)
+        new_state = _State(
+            loss=keep(loss, state.loss),
+            gradient=keep(gradient, state.gradient),
+            hessian=keep(hessian, state.hessian),
+            damping=jnp.minimum(damping, 1e20),
+            growth=growth,
+            num_steps=state.num_steps + 1,
+            terminate=done | stuck,
+            result=optx.RESULTS.successful,
+        )
+        return jax.tree.map(keep, trial, y), new_state, None
+
+    def terminate(self, fn, y, args, options, state: _State, tags):
+        return state.terminate, state.result
+
+    def postprocess(self, fn, y, aux, args, options, state, tags, result):
+        return y, aux, {}
