@@ -196,7 +196,8 @@ def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, n
             verbose=_progress.progress_verbose if progress else None,
         )
     sol = optx.least_squares(
-        objective.residuals, solver, y0, args=(T, weights, scheme, smoothing),
+        objective.residuals, solver, y0,
+        args=(T, weights, scheme, smoothing, None if names else objective.basis_of(scheme, dtype)),
         max_steps=max_steps, throw=False,
     )
     fitted = from_unconstrained(scheme, names, sol.value["params"])

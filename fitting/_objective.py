@@ -1,8 +1,9 @@
 """The fit's least-squares objective: residuals, foot points and their linearization.
 
 Unknowns `y = {"control": P (n, d), "params": unconstrained scheme parameters}`; the
-problem data `args = (target, weights, scheme, smoothing)`, all in units of the outline's
-size. Three groups of residuals:
+problem data `args = (target, weights, scheme, smoothing, basis)`, all in units of the
+outline's size; `basis` is `Objective.basis_of(scheme)` when no scheme parameter is
+fitted (computed once, outside the solver loop), else None. Three groups of residuals:
 
 - target to curve: each sample's distance vector to the curve at its foot point, measured
   from the curve's tangent line there (tangent-distance minimization: W. Wang,
@@ -57,17 +58,22 @@ class Objective(eqx.Module):
     def stride(self) -> int:  # every stride-th curve sample is held to the target
         return max(1, self.num_curve // (4 * self.n))
 
+    def basis_of(self, scheme, dtype):
+        """The curve's basis matrices (samples, tangents or None) for `scheme`."""
+        return curve_basis(scheme, self.n, self.levels, self.boundary, dtype, self.hermite)
+
     def basis(self, y, args):
         """The scheme at `y`'s parameters and its basis matrices (samples, tangents)."""
-        target, _, base, _ = args
+        target, _, base, _, fixed = args
+        if fixed is not None:
+            return base, *fixed
         scheme = from_unconstrained(base, self.names, y["params"])
-        A, V = curve_basis(scheme, self.n, self.levels, self.boundary, target.dtype, self.hermite)
-        return scheme, A, V
+        return scheme, *self.basis_of(scheme, target.dtype)
 
     def feet(self, y, args):
         """Foot points: each sample's curve position and each held curve sample's
         (segment, fraction) on the target polyline. Not differentiated."""
-        target, weights, _, _ = args
+        target, weights = args[:2]
         _, A, V = self.basis(y, args)
         P = y["control"]
         X = A @ P
@@ -105,7 +111,7 @@ class Objective(eqx.Module):
         differentiation takes of this residual is the distance's own (feet held fixed,
         it would miss the curvature term).
         """
-        target, weights, _, smoothing = args
+        target, weights, _, smoothing, _ = args
         tau, segment, fraction = feet
         _, A, V = self.basis(y, args)
         P = y["control"]
@@ -169,7 +175,7 @@ class Objective(eqx.Module):
         only scheme-parameter columns, if any, come from forward-mode autodiff.
         """
         feet = self.feet(y, args)
-        target, weights, _, smoothing = args
+        target, weights, _, smoothing, _ = args
         tau, segment, fraction = feet
         _, A, V = self.basis(y, args)
         P = y["control"]

@@ -17,7 +17,8 @@ matrix's diagonal), not Marquardt's diagonal scaling: points sliding along strai
 of the curve leave some diagonal entries near zero, and those directions need damping.
 
 It stops (successfully) when an accepted step lowers the loss by at most
-`rtol * loss + atol`, or when the loss is below `atol`.
+`rtol * loss + atol`, or when the loss is below `atol`. Step 0 only evaluates the model at
+the starting point (so `num_steps` counts it).
 """
 
 from collections.abc import Callable
@@ -58,12 +59,14 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     norm: Callable = eqx.field(static=True, default=optx.max_norm)
 
     def init(self, fn, y, args, options, f_struct, aux_struct, tags) -> _State:
-        loss, gradient, hessian = self.model(y, args)
-        dtype = loss.dtype
+        # The model at `y` is evaluated by the first step (a zero step, always accepted),
+        # so that the compiled program holds one copy of it, not two.
+        flat, _ = ravel_pytree(y)
+        size, dtype = flat.size, flat.dtype
         return _State(
-            loss=loss,
-            gradient=gradient,
-            hessian=hessian,
+            loss=jnp.asarray(jnp.inf, dtype),
+            gradient=jnp.zeros((size,), dtype),
+            hessian=jnp.zeros((size, size), dtype),
             damping=jnp.asarray(1e-3, dtype),
             growth=jnp.asarray(2.0, dtype),
             num_steps=jnp.array(0),
@@ -75,23 +78,31 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         flat, unravel = ravel_pytree(y)
         H, g = state.hessian, state.gradient
         size = H.shape[0]
-        scale = jnp.maximum(jnp.trace(H) / size, jnp.finfo(H.dtype).tiny)
+        first = state.num_steps == 0
+        trace = jnp.trace(H)
+        scale = jnp.where(trace > 0, trace / size, 1.0)
         factor = jax.scipy.linalg.cho_factor(H + state.damping * scale * jnp.eye(size, dtype=H.dtype))
-        delta = -jax.scipy.linalg.cho_solve(factor, g)
+        delta = jnp.where(first, 0.0, -jax.scipy.linalg.cho_solve(factor, g))
         trial = unravel(flat + delta)
         loss, gradient, hessian = self.model(trial, args)
         predicted = -(2 * g @ delta + delta @ (H @ delta))
         actual = state.loss - loss
         ratio = actual / jnp.where(predicted > 0, predicted, 1.0)
         finite = jnp.isfinite(loss) & jnp.all(jnp.isfinite(delta))
-        accept = finite & (predicted > 0) & (ratio > 1e-4)
+        accept = first | (finite & (predicted > 0) & (ratio > 1e-4))
         damping = jnp.where(
-            accept,
-            state.damping * jnp.maximum(1 / 3, 1 - (2 * ratio - 1) ** 3),
-            state.damping * state.growth,
+            first,
+            state.damping,
+            jnp.where(
+                accept,
+                state.damping * jnp.maximum(1 / 3, 1 - (2 * ratio - 1) ** 3),
+                state.damping * state.growth,
+            ),
         )
         growth = jnp.where(accept, 2.0, 2 * state.growth).astype(state.growth.dtype)
-        done = accept & ((actual <= self.rtol * state.loss + self.atol) | (loss <= self.atol))
+        done = ~first & accept & (
+            (actual <= self.rtol * state.loss + self.atol) | (loss <= self.atol)
+        )
         # The damping cannot grow without bound: past 1e16 of the matrix's scale the steps
         # vanish in rounding: no step lowers the loss, which is then minimal to working
         # precision (a success, as for optimistix's own termination).
@@ -99,9 +110,6 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         if callable(self.verbose):
             self.verbose(num_steps=("Step", state.num_steps),
                          loss_this_step=("Loss on this step", 0.5 * loss))
-        import os
-        if os.environ.get('FPDEBUG'):
-            jax.debug.print('step {} loss {} new {} pred {} ratio {} damp {} acc {}', state.num_steps, state.loss, loss, predicted, ratio, state.damping, accept)
         keep = lambda new, old: jnp.where(accept, new, old)
         new_state = _State(
             loss=keep(loss, state.loss),
