@@ -1,11 +1,12 @@
-"""The fitted curve as a fine polyline of exact limit points, and projection onto it.
+"""The fitted curve: exact limit points, joined by Hermite segments or chords; feet on it.
 
 The fit measures distances to the *limit* curve. It evaluates the curve at the dyadic
 parameters of `levels` levels: refine `levels` times, then push every refined point to
 its limit position with the scheme's limit stencil (exact, and differentiable in the
-points and the scheme's parameters). Between those points the curve is replaced by its
+points and the scheme's parameters). Between those points the curve is modelled by cubic
+Hermite segments with the exact limit tangents for C^1 schemes (`evaluate`), else by its
 chords, whose distance to the curve is about h^2 kappa / 8 for spacing h and curvature
-kappa; `levels` is chosen so that this is far below the data's own error.
+kappa.
 """
 
 import jax
@@ -168,7 +169,7 @@ def evaluate(
 
     With tangents `V`, the cubic Hermite interpolant of the samples `X` and their exact
     tangents: a $C^1$ curve within $O(h^4)$ of a $C^4$ limit curve (and within
-    $O(h^{1+\alpha})$ in tangent of any $C^{1,\alpha}$ one), so distances to it are smooth in
+    $O(h^{1+\alpha})$ in position of any $C^{1,\alpha}$ one), so distances to it are smooth in
     the control points and the sample positions. Without, the polyline through `X` (zero
     second derivative). `X` and `V` may carry trailing axes (e.g. basis matrices).
     """
@@ -192,7 +193,7 @@ def locate(
     V: Float[Array, "N d"] | None,
     closed: bool,
     coarse: int,
-    newton: int = 3,
+    newton: int = 4,
 ) -> Float[Array, " m"]:
     r"""Foot-point positions (in units of curve samples) of `points` on the curve.
 

@@ -320,8 +320,15 @@ def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights,
             "concrete values; when differentiating or jitting through the fit, order them "
             "first with `fitting.order_samples` and pass ordered=True."
         )
-    if not is_traced(weights) and not np.all(np.asarray(weights) >= 0):
-        raise ValueError(f"`{caller}(weights=...)` must be non-negative.")
+    if not is_traced(weights):
+        values = np.asarray(weights)
+        if not np.all(values >= 0):
+            raise ValueError(f"`{caller}(weights=...)` must be non-negative.")
+        if np.count_nonzero(values) < unknowns:
+            raise ValueError(
+                f"`{caller}(weights=...)` leaves {np.count_nonzero(values)} samples with "
+                f"non-zero weight for {unknowns} unknowns; give at least as many."
+            )
     smooth_rows = is_traced(smoothing) or float(smoothing) != 0.0
     if not is_traced(smoothing) and float(smoothing) < 0:
         raise ValueError(f"`{caller}(smoothing=...)` must be >= 0, got {smoothing}.")
@@ -418,8 +425,10 @@ def fit(
       outline's size (default 1e-7 in float64, 1e-5 in float32); optimistix's solvers
       use it as their `rtol` and `atol`.
     - `weights`: non-negative per-sample weights `(m,)`.
-    - `smoothing`: weight of a second-difference penalty on the control points, relative
-      to the mean squared distance (in units of the outline's size).
+    - `smoothing`: weight of a second-difference penalty on the control points (the
+      sum of their squared second differences, divided by n), added to the sum of
+      squared sample distances (in units of the outline's size); its effect therefore
+      weakens as the number of samples grows.
     - `ordered`: False to order unordered samples first ([`fitting.order_samples`][]).
     - `progress`: show the step count and loss on stderr while the solver runs.
     - `on_failure`: what to do if the solver does not converge: `"raise"` a
@@ -478,28 +487,41 @@ def _pad_ragged(targets, weights):
     return jnp.stack(stacked), jnp.stack(stacked_weights)
 
 
-def _batched(targets, weights, scheme, smoothing, **static):
-    """Fit `(devices, per_device, m, d)` targets: `vmap` over the device axis (which the
-    sharding splits, one slice per device), and one item after another within a device.
+def _fit_items(targets, weights, scheme, smoothing, *, devices: int, **static):
+    """Fit `(k, m, d)` targets one after another (`lax.map`, a scan of single solves).
 
-    One after another (`lax.map`, a scan of single solves) rather than `vmap` over all
-    items: a batched solver loop runs every item until the slowest converges, and its
-    batched gathers and factorizations ran slower per item on CPU; measured 1.9x slower
-    than a Python loop of single fits (64 items), where `lax.map` matches the loop with
-    one dispatch for the whole batch.
+    One after another rather than `vmap` over the items: a batched solver loop runs every
+    item until the slowest converges, and its batched gathers and factorizations ran
+    slower per item on CPU; measured 1.9x slower than a Python loop of single fits (64
+    items), where `lax.map` matches the loop with one dispatch for the whole batch.
     """
     progress = static.pop("progress", False)
-    count, per_device = targets.shape[:2]
+    count = targets.shape[0]
 
     def solve(item):
         index, target, weight = item
         result = _fit_one(target, weight, scheme, None, smoothing, progress=False, **static)
         if progress:  # one line for the batch: outlines done, not every solver step
-            _progress.items_done(index, per_device, count)
+            _progress.items_done(index, count, devices)
         return result
 
-    run = lambda t, w: jax.lax.map(solve, (jnp.arange(per_device), t, w))
-    return jax.vmap(run)(targets, weights)
+    return jax.lax.map(solve, (jnp.arange(count), targets, weights))
+
+
+def _batched(targets, weights, scheme, smoothing, **static):
+    """Fit `(devices, per_device, m, d)` targets: `vmap` over the device axis, which the
+    sharding splits (one slice per device), and one item after another within a device.
+
+    The vmapped solver loop makes the devices step together (its stopping test is
+    reduced over the device axis), so a device waits for the other's slower item at
+    every `lax.map` iteration. `jax.shard_map` would give each device its own loop, but
+    lineax's structure check rejects the manual-axis shardings it introduces (measured
+    with lineax's Cholesky in the initialisation); to revisit.
+    """
+    count = targets.shape[0]
+    return jax.vmap(lambda t, w: _fit_items(t, w, scheme, smoothing, devices=count, **static))(
+        targets, weights
+    )
 
 
 # Module level, so that repeated calls with the same shapes and settings reuse the
@@ -548,9 +570,12 @@ def fit_batch(
 ) -> FitResult:
     """Fit many outlines at once; the same settings as [`fitting.fit`][].
 
-    The items are solved together (`jax.vmap` of the single fit) and the batch is
-    split over `devices` (default: all of `jax.devices()`), one independent solver loop
-    per device, so several devices or hosts scale without code changes. One item that
+    The batch is split evenly over `devices` (default: all of `jax.devices()`; sharded,
+    SPMD), and each device fits its share one item after another in one compiled loop
+    (`lax.map`), so several devices or hosts scale without code changes (the devices
+    step together: see `_batched`).
+    On a multi-core CPU, `XLA_FLAGS=--xla_force_host_platform_device_count=N` (set
+    before JAX starts) makes the cores devices. One item that
     fails (non-finite samples, no convergence) does not spoil the others: see
     `result.converged[i]` and `result.message[i]`.
 
@@ -559,11 +584,9 @@ def fit_batch(
     - `targets`: an array `(B, m, d)`, or a list of `B` arrays `(m_i, d)` of different
       lengths (padded internally with zero-weight samples).
     - `weights`: `None`, an array `(B, m)`, or a list of `(m_i,)` arrays.
-    - `max_steps`: solver step limit per item (default 100: a batched loop runs until
-      its slowest item stops, so keep it modest).
+    - `max_steps`: solver step limit per item (default 200).
     - `devices`: the devices to split the batch over.
-    - `progress`: one line on stderr for the whole batch (the most steps any item has
-      taken, the largest loss).
+    - `progress`: one line on stderr for the whole batch, counting outlines done.
     - others: as for [`fitting.fit`][]. Items whose samples are not finite are not
       fitted: their status is `nonfinite_input` and their numbers are NaN.
 

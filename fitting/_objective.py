@@ -24,6 +24,7 @@ corner cutting, which is only $C^0$ for most (r, s)) use the chords between samp
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax.flatten_util import ravel_pytree
 
 from ._curve import chord_band, curve_basis, evaluate, foot_residual, locate, project
@@ -31,10 +32,8 @@ from ._init import second_differences
 from ._params import from_unconstrained
 
 
-#: Weight of the curve-to-target distances relative to the target-to-curve ones. They
-#: are measured to the chords between samples, which lie inside convex arcs by about
-#: h^2 kappa / 8, so a full weight would pull the curve inwards; 0.1 keeps that bias
-#: small (measured: the same two-sided error on glyphs as weight 1).
+#: Weight of the curve-to-target distances (beyond their chord band, `_band`) relative
+#: to the target-to-curve ones.
 BACK_WEIGHT = 0.1
 
 
@@ -55,8 +54,14 @@ class Objective(eqx.Module):
         return self.boundary == "closed"
 
     @property
-    def stride(self) -> int:  # every stride-th curve sample is held to the target
-        return max(1, self.num_curve // (4 * self.n))
+    def held(self) -> np.ndarray:
+        """Indices of the curve samples held to the target: every `stride`-th, and for
+        open curves also the last (the end, which is pinned to the last sample)."""
+        stride = max(1, self.num_curve // (4 * self.n))
+        index = np.arange(0, self.num_curve, stride)
+        if not self.closed and index[-1] != self.num_curve - 1:
+            index = np.append(index, self.num_curve - 1)
+        return index
 
     def basis_of(self, scheme, dtype):
         """The curve's basis matrices (samples, tangents or None) for `scheme`."""
@@ -79,7 +84,7 @@ class Objective(eqx.Module):
         X = A @ P
         tau = locate(target, X, None if V is None else V @ P, self.closed,
                      coarse=max(1, min(8, self.num_curve // 64)))
-        held = X[:: self.stride]
+        held = X[self.held]
         segment, fraction = project(held, target, self.closed,
                                     coarse=max(1, min(8, self.num_target // 64)))
         if not self.closed:
@@ -135,11 +140,13 @@ class Objective(eqx.Module):
         valid_count = jnp.sum(weights > 0).astype(target.dtype)
         scaled = weights * (valid_count / jnp.sum(weights))
         e = e * jnp.sqrt(scaled)[:, None]
-        held = X[:: self.stride]
+        held = X[self.held]
         back = foot_residual(held, target, segment, fraction, self.closed)
-        length = jnp.sqrt(jnp.sum(back**2, -1))
-        excess = jnp.maximum(length - self._band(target, segment), 0.0)
-        back = back * (excess / jnp.where(excess > 0, length, 1.0))[:, None]
+        band = self._band(target, segment)
+        square = jnp.sum(back**2, -1)
+        beyond = square > band**2  # a double `where`: no 0/0 in the derivative at 0
+        length = jnp.sqrt(jnp.where(beyond, square, 1.0))
+        back = back * jnp.where(beyond, 1 - band / length, 0.0)[:, None]
         back = back * jnp.sqrt(BACK_WEIGHT * valid_count / held.shape[0])
         if not self.smooth_rows:
             return e, back
@@ -148,8 +155,7 @@ class Objective(eqx.Module):
 
     def residuals(self, y, args):
         """Residuals with the foot points found at `y` (for optimistix's solvers and the
-        implicit adjoint: the feet are not differentiated, which is exact at the optimum
-        to first order because each residual is normal to the curve there)."""
+        implicit adjoint; see `residuals_at` for how the feet enter the derivatives)."""
         return self.residuals_at(y, args, self.feet(y, args))
 
     def quadratic_model(self, y, args):
@@ -191,15 +197,17 @@ class Objective(eqx.Module):
         line, speed2 = self._line(tau, slope)
         kappa = jnp.maximum(speed2 + jnp.sum(gap * bend, -1), 0.5 * speed2)
         inverse = jnp.where(line, w / jnp.where(line, kappa, 1.0), 0.0)
-        normal_gap = jnp.where(line[:, None], gap - slope * (jnp.sum(gap * slope, -1) / jnp.where(line, speed2, 1.0))[:, None], gap)
-        loss = w @ jnp.sum(normal_gap**2, -1)
+        # The loss at these feet: the squared gaps themselves (an upper bound of the
+        # squared distances, equal to them at converged feet), so that loss and
+        # gradient B^T gap describe the same function of P.
+        loss = w @ jnp.sum(gap**2, -1)
         # u_i over (control j, coordinate c): b_ij C'_c + b'_ij r_c.
         U = (rows[:, :, None] * slope[:, None, :] + slope_rows[:, :, None] * gap[:, None, :])
         U = U.reshape(m, n * d)
         gradient = (rows.T @ (w[:, None] * gap)).reshape(-1)
         hessian = jnp.kron(rows.T @ (w[:, None] * rows), eye) - U.T @ (inverse[:, None] * U)
         # Curve to target: linear in P (the target's segments are fixed).
-        held = A[:: self.stride]
+        held = A[self.held]
         nxt = (segment + 1) % m if self.closed else jnp.minimum(segment + 1, m - 1)
         direction = target[nxt] - target[segment]
         length2 = jnp.sum(direction**2, -1)
@@ -211,10 +219,12 @@ class Objective(eqx.Module):
         back = jnp.einsum("kac,kc->ka", normal, held @ P - foot)
         # Only the part beyond the chord's sagitta band counts (see `_band`): a scalar
         # residual `excess` along the unit direction of `back`.
-        length = jnp.sqrt(jnp.sum(back**2, -1))
-        excess = jnp.maximum(length - self._band(target, segment), 0.0)
-        active = excess > 0
-        direction = back / jnp.where(active, length, 1.0)[:, None]
+        band = self._band(target, segment)
+        square = jnp.sum(back**2, -1)
+        active = square > band**2
+        length = jnp.sqrt(jnp.where(active, square, 1.0))
+        excess = jnp.where(active, length - band, 0.0)
+        direction = back / length[:, None]
         loss += weight * jnp.sum(excess**2)
         gradient += weight * (held.T @ (excess[:, None] * direction)).reshape(-1)
         # sum_k held_kj held_kl direction_ka direction_kc as one matrix product

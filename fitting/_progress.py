@@ -56,7 +56,8 @@ def _show_items(done, total):
 def items_done(index, per_device, devices):
     """Report that item `index` (counted from 0) of each device's share is done."""
     done = (eqxi.unvmap_max(index) + 1) * devices
-    jax.debug.callback(_show_items, done, per_device * devices, ordered=True)
+    # Unordered: ordered effects are not supported across several devices.
+    jax.debug.callback(_show_items, done, per_device * devices, ordered=False)
 
 
 def finish():

@@ -1,10 +1,10 @@
 """A Levenberg-Marquardt solver for the fit that takes its Jacobian from the problem.
 
 optimistix's `LevenbergMarquardt` builds the Jacobian of a black-box residual function by
-autodiff and solves the damped normal equations with lineax. The fit's residuals have a
-cheaper structure: with the foot points held fixed they are smooth, almost linear
-functions of the control points, so the problem can hand over its residuals and dense
-Jacobian in one pass (`Objective.linearize`), and a step is one small Cholesky solve.
+autodiff and solves the damped normal equations with lineax. The fit has more structure:
+the curve is linear in the control points, so the problem can hand over its loss,
+gradient and exact Hessian, assembled in closed form (`Objective.quadratic_model`), and a
+step is one small Cholesky solve.
 The solver is an ordinary optimistix least-squares solver, so `optimistix.least_squares`
 runs it: `max_steps`, `throw`, the result codes and the implicit adjoint work unchanged.
 
@@ -17,7 +17,9 @@ matrix's diagonal), not Marquardt's diagonal scaling: points sliding along strai
 of the curve leave some diagonal entries near zero, and those directions need damping.
 
 It stops (successfully) when an accepted step lowers the loss by at most
-`rtol * loss + atol`, or when the loss is below `atol`. Step 0 only evaluates the model at
+`rtol * loss + atol`, or when the loss is below `atol`; it reports
+`nonlinear_divergence` when no step can lower the loss although the gradient does not
+vanish. Step 0 only evaluates the model at
 the starting point (so `num_steps` counts it).
 """
 
@@ -56,7 +58,7 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     atol: float
     model: Callable = eqx.field(static=True)
     verbose: Callable | None = eqx.field(static=True, default=None)
-    norm: Callable = eqx.field(static=True, default=optx.max_norm)
+    norm: Callable = eqx.field(static=True, default=optx.max_norm)  # optimistix's interface
 
     def init(self, fn, y, args, options, f_struct, aux_struct, tags) -> _State:
         # The model at `y` is evaluated by the first step (a zero step, always accepted),
@@ -104,9 +106,11 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
             (actual <= self.rtol * state.loss + self.atol) | (loss <= self.atol)
         )
         # The damping cannot grow without bound: past 1e16 of the matrix's scale the steps
-        # vanish in rounding: no step lowers the loss, which is then minimal to working
-        # precision (a success, as for optimistix's own termination).
+        # vanish in rounding and no step lowers the loss. That is a minimum to working
+        # precision only if the gradient vanishes too; otherwise the model and the loss
+        # disagree (e.g. from a start far outside the data) and the fit has failed.
         stuck = ~accept & (damping > 1e16)
+        flat_gradient = jnp.max(jnp.abs(g)) <= 1e-6 * jnp.maximum(1.0, jnp.sqrt(state.loss))
         if callable(self.verbose):
             self.verbose(num_steps=("Step", state.num_steps),
                          loss_this_step=("Loss on this step", 0.5 * loss))
@@ -119,7 +123,10 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
             growth=growth,
             num_steps=state.num_steps + 1,
             terminate=done | stuck,
-            result=optx.RESULTS.successful,
+            result=optx.RESULTS.where(
+                stuck & ~flat_gradient, optx.RESULTS.nonlinear_divergence,
+                optx.RESULTS.successful,
+            ),
         )
         return jax.tree.map(keep, trial, y), new_state, None
 

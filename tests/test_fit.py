@@ -235,6 +235,8 @@ def test_sharded_batch_equals_unsharded():
         targets = np.stack([r * np.cos(th), r * np.sin(th)], -1)
         a = fitting.fit_batch(targets, js.CubicBSpline(), 8)
         b = fitting.fit_batch(targets, js.CubicBSpline(), 8, devices=jax.devices()[:1])
+        c = fitting.fit_batch(targets, js.CubicBSpline(), 8, progress=True)  # one line
+        assert np.all(np.asarray(c.converged))
         print(float(np.abs(np.asarray(a.control_points) - np.asarray(b.control_points)).max()))
         """
     )
@@ -244,6 +246,7 @@ def test_sharded_batch_equals_unsharded():
     )
     assert out.returncode == 0, out.stderr[-3000:]
     assert float(out.stdout.strip().splitlines()[-1]) < 1e-9
+    assert "outlines" in out.stderr  # the batch's progress line, across two devices
 
 
 # --------------------------------------------------------------------------------------
@@ -312,6 +315,54 @@ def test_gradient_with_respect_to_scheme_parameters():
     e = np.zeros((60, 2))
     e[:20, 1] = 1.0  # move part of the outline
     assert_matches_finite_difference(float(np.sum(grad * e)), fitted_w, samples, e)
+
+
+def test_model_matches_finite_differences_of_its_loss():
+    """The solver's closed-form gradient and (reduced) Hessian against central finite
+    differences of the loss with the feet found afresh at every point."""
+    from fitting._fit import default_levels
+    from fitting._objective import Objective
+
+    samples, direction = _small_problem()
+    samples = (samples - samples.mean(0)) / 1.3
+    for scheme, hermite in ((js.CubicBSpline(), True), (js.Chaikin(), False)):
+        levels = default_levels(8, 60, hermite)
+        N = js.refined_count(8, scheme, levels, "closed")
+        objective = Objective(n=8, levels=levels, boundary="closed", names=(), hermite=hermite,
+                              smooth_rows=True, num_curve=N, num_target=60)
+        weights = jnp.asarray(np.random.default_rng(3).uniform(0.5, 1.5, 60))
+        basis = objective.basis_of(scheme, samples.dtype)
+        args = (samples, weights, scheme, jnp.asarray(0.01), basis)
+        fit = fitting.fit(samples, scheme, 8, levels=levels, weights=weights, smoothing=0.01)
+        # Near (not at) the optimum, where the model must hold.
+        P = (fit.control_points - samples.mean(0)) + 0.01 * direction
+        model = jax.jit(lambda P: objective.quadratic_model({"control": P, "params": {}}, args))
+        loss = lambda P: float(model(P)[0])
+        _, gradient, hessian = model(P)
+        v = np.asarray(direction).reshape(-1)
+        h = 1e-5
+        slope = (loss(P + h * direction) - loss(P - h * direction)) / (2 * h)
+        curvature = (loss(P + h * direction) - 2 * loss(P) + loss(P - h * direction)) / h**2
+        np.testing.assert_allclose(2 * float(gradient @ v), slope, rtol=1e-4)
+        np.testing.assert_allclose(2 * float(v @ hessian @ v), curvature, rtol=2e-2)
+
+
+def test_gradient_on_exact_data_is_finite():
+    """Samples exactly on the curve put held curve points on the target polyline: the
+    curve-to-target term must still have a finite derivative there."""
+    samples = exact_curve(TRUE_CONTROL, js.CubicBSpline(), 6)[::4]
+    grad = jax.grad(lambda t: jnp.sum(fitting.fit(t, js.CubicBSpline(), 8).control_points))(
+        jnp.asarray(samples)
+    )
+    assert np.all(np.isfinite(np.asarray(grad)))
+
+
+def test_a_hopeless_start_is_not_reported_as_converged():
+    samples = glyph_outline("S", 150)
+    line = np.stack([np.linspace(0, 1, 8), np.zeros(8)], -1)  # collinear control points
+    result = fitting.fit(samples, js.FourPoint(1 / 16), 8, init=line, on_failure="ignore")
+    size = np.linalg.norm(np.ptp(samples, axis=0))
+    assert (not bool(result.converged)) or float(result.rms) < 0.1 * size
 
 
 def test_fit_under_filter_jit():

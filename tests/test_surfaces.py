@@ -98,6 +98,18 @@ open_meshes = [("grid", lambda: grid(3, 2)), ("grid_tri", lambda: grid(3, 2, tri
                ("fan", hexagon_fan)]  # fmt: skip
 
 
+def assert_gradient_matches_central_differences(loss, v, rtol, eps=1e-6):
+    """`jax.grad(loss)` at `v` against central differences in every coordinate."""
+    x = jnp.asarray(v)
+    grad = np.asarray(jax.grad(loss)(x))
+    fd = np.zeros_like(v)
+    for idx in np.ndindex(*v.shape):
+        e = np.zeros_like(v)
+        e[idx] = eps
+        fd[idx] = (loss(x + e) - loss(x - e)) / (2 * eps)
+    np.testing.assert_allclose(grad, fd, rtol=rtol, atol=1e-7)
+
+
 # ---------------------------------------------------------------------------- counts
 
 
@@ -531,15 +543,7 @@ def test_normal_kinds_and_gradients_on_tagged_open_mesh():
     limit = jss.Limit(mesh, jss.Loop())
     weights = np.random.default_rng(1).normal(size=(len(v), 3))
     loss = lambda x: jnp.sum(limit.normals(x) * weights)
-    x = jnp.asarray(v)
-    grad = np.asarray(jax.grad(loss)(x))
-    eps = 1e-6
-    fd = np.zeros_like(v)
-    for idx in np.ndindex(*v.shape):
-        e = np.zeros_like(v)
-        e[idx] = eps
-        fd[idx] = (loss(x + e) - loss(x - e)) / (2 * eps)
-    np.testing.assert_allclose(grad, fd, rtol=1e-5, atol=1e-7)
+    assert_gradient_matches_central_differences(loss, v, rtol=1e-5)
 
 
 # ---------------------------------------------------------- boundaries and creases
@@ -698,15 +702,7 @@ def test_gradients_against_finite_differences():
     def loss(x):
         return jnp.sum(jnp.sin(refiner(x)) * target) + jnp.sum(limit.normals(x)[:, 2] ** 3)
 
-    x = jnp.asarray(v)
-    grad = np.asarray(jax.grad(loss)(x))
-    eps = 1e-6
-    fd = np.zeros_like(v)
-    for idx in np.ndindex(*v.shape):
-        e = np.zeros_like(v)
-        e[idx] = eps
-        fd[idx] = (loss(x + e) - loss(x - e)) / (2 * eps)
-    np.testing.assert_allclose(grad, fd, rtol=1e-6, atol=1e-7)
+    assert_gradient_matches_central_differences(loss, v, rtol=1e-6)
 
 
 def test_normals_gradient_finite_at_degenerate_configuration():
