@@ -17,14 +17,6 @@ import jaxsubdiv as js
 from jaxsubdiv._analysis.limit import limit_points, limit_tangents
 
 
-def curve_polyline(
-    control: Float[Array, "*batch n d"], scheme, levels: int, boundary: str
-) -> Float[Array, "*batch N d"]:
-    """Points of the limit curve at the dyadic parameters of `levels` levels."""
-    refined = js.refine(control, scheme, levels, boundary=boundary)
-    return limit_points(refined, scheme, boundary=boundary)
-
-
 def _segment_ends(curve, closed):
     nxt = jnp.roll(curve, -1, axis=0) if closed else curve[1:]
     return (curve if closed else curve[:-1]), nxt

@@ -15,7 +15,7 @@ from jaxsubdiv._misc import as_float_array, is_traced, static_int
 from jaxsubdiv._refine import _min_points
 
 from . import _progress
-from ._curve import curve_basis, distances, evaluate, locate
+from ._curve import distances, evaluate, locate
 from ._init import initial_control, order_samples
 from ._objective import BACK_WEIGHT as BACK_WEIGHT, Objective
 from ._params import fitted_names, from_unconstrained, to_unconstrained
@@ -180,14 +180,17 @@ def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, n
     scale = jnp.sqrt(share @ jnp.sum((target - center) ** 2, -1))
     scale = jnp.where(scale > 0, scale, 1.0)
     T = (target - center) / scale  # work in units of the outline's size
-    if init is None:
-        P0 = initial_control(T, weights, scheme, n, levels, boundary, smoothing)
-    else:
-        P0 = (init - center) / scale
-    y0 = {"control": jax.lax.stop_gradient(P0), "params": to_unconstrained(scheme, names)}
     N = js.refined_count(n, scheme, levels, boundary)
     objective = Objective(n=n, levels=levels, boundary=boundary, names=names, hermite=hermite,
                           smooth_rows=smooth_rows, num_curve=N, num_target=m)
+    # The curve's basis at the starting parameters: for the initial linear fit, for the
+    # whole solve when no parameter is fitted, and for the final curve then.
+    basis = objective.basis_of(scheme, dtype)
+    if init is None:
+        P0 = initial_control(T, weights, basis[0], boundary, smoothing)
+    else:
+        P0 = (init - center) / scale
+    y0 = {"control": jax.lax.stop_gradient(P0), "params": to_unconstrained(scheme, names)}
     if solver is None:
         # Stop when an accepted step lowers the loss (a sum of m squared distances) by
         # less than `tol` of itself, or the loss is below m tol^2 (RMS distance `tol`).
@@ -197,12 +200,12 @@ def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, n
         )
     sol = optx.least_squares(
         objective.residuals, solver, y0,
-        args=(T, weights, scheme, smoothing, None if names else objective.basis_of(scheme, dtype)),
+        args=(T, weights, scheme, smoothing, None if names else basis),
         max_steps=max_steps, throw=False,
     )
     fitted = from_unconstrained(scheme, names, sol.value["params"])
     P = sol.value["control"]
-    A, V = curve_basis(fitted, n, levels, boundary, dtype, hermite)
+    A, V = objective.basis_of(fitted, dtype) if names else basis
     X = A @ P
     if hermite:
         # Distances to the Hermite curve at freshly found feet (each a point of the curve,

@@ -6,8 +6,6 @@ import lineax as lx
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._curve import curve_polyline
-
 
 def order_samples(points, *, closed: bool = True) -> np.ndarray:
     """Order unordered samples of an outline along it; returns the index order.
@@ -95,13 +93,14 @@ def second_differences(n: int, closed: bool, dtype) -> Array:
 def initial_control(
     target: Float[Array, "m d"],
     weights: Float[Array, " m"],
-    scheme,
-    n: int,
-    levels: int,
+    table: Float[Array, "N n"],
     boundary: str,
     smoothing,
 ) -> Float[Array, "n d"]:
     """Linear least-squares control points for chord-length parameters.
+
+    `table` is the curve's basis: row `K` maps the control points to the limit curve at
+    its dyadic sample `K` (`_curve.curve_basis`).
 
     Solves $(B^T W B + \\mu D^T D) P = B^T W T$ with lineax's Cholesky, where B maps
     control points to the curve at the samples' chord-length positions and D takes
@@ -111,9 +110,7 @@ def initial_control(
     """
     closed = boundary == "closed"
     fractions = chord_fractions(target, closed)
-    # The curve is linear in the control points: its polyline for P = I is the basis.
-    table = curve_polyline(jnp.eye(n, dtype=target.dtype), scheme, levels, boundary)
-    N = table.shape[0]
+    N, n = table.shape
     W = weights / jnp.sum(weights)
     D = second_differences(n, closed, target.dtype)
 
