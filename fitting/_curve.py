@@ -22,27 +22,11 @@ def _segment_ends(curve, closed):
     return (curve if closed else curve[:-1]), nxt
 
 
-def project(
-    points: Float[Array, "m d"], curve: Float[Array, "N d"], closed: bool, coarse: int
-) -> tuple[Int[Array, " m"], Float[Array, " m"]]:
-    """Nearest point of the polyline `curve` to each of `points`: (segment, fraction).
-
-    Coarse to fine: the nearest of every `coarse`-th vertex first, then exact projection
-    onto the segments within `coarse` vertices of it either way. Exact for curves whose
-    vertices are at most ~`coarse` segments away from the nearest coarse vertex, which
-    holds for refined curves sampled densely enough. Not differentiated (the fit treats
-    the foot points as fixed, see `foot_residual`).
-    """
-    points, curve = jax.lax.stop_gradient((points, curve))
+def _window_project(points, curve, closed, window):
+    """Nearest point of each point's candidate segments `window` `(m, w)`: (segment,
+    fraction)."""
     N = curve.shape[0]
     segments = N if closed else N - 1
-    coarse = max(1, min(coarse, segments // 4 or 1))
-    anchors = curve[::coarse]
-    # argmin |p - a|^2 = argmin (|a|^2 - 2 p.a): one matrix product instead of an
-    # (m, anchors, d) difference array (measured 2.6x faster for the anchor search).
-    nearest = jnp.argmin(jnp.sum(anchors**2, -1)[None, :] - 2 * points @ anchors.T, axis=1)
-    offsets = jnp.arange(-coarse - 1, coarse + 1)
-    window = nearest[:, None] * coarse + offsets[None, :]  # (m, w) segment indices
     window = window % segments if closed else jnp.clip(window, 0, segments - 1)
     a, b = _segment_ends(curve, closed)
     A, B = a[window], b[window]  # (m, w, d)
@@ -55,6 +39,71 @@ def project(
     best = jnp.argmin(jnp.sum((points[:, None, :] - foot) ** 2, -1), axis=1)
     pick = lambda x: jnp.take_along_axis(x, best[:, None], axis=1)[:, 0]
     return pick(window), pick(u)
+
+
+def _anchors(curve, closed, coarse):
+    segments = curve.shape[0] if closed else curve.shape[0] - 1
+    coarse = max(1, min(coarse, segments // 4 or 1))
+    return coarse, curve[::coarse]
+
+
+def _anchor_distance2(points, anchors):
+    """Squared distances from the points to the anchors, `(m, k)`, as one matrix product
+    (argmin |p - a|^2 = argmin (|a|^2 - 2 p.a); measured 2.6x faster than an
+    `(m, k, d)` difference array)."""
+    return jnp.sum(anchors**2, -1)[None, :] - 2 * points @ anchors.T
+
+
+def project(
+    points: Float[Array, "m d"], curve: Float[Array, "N d"], closed: bool, coarse: int
+) -> tuple[Int[Array, " m"], Float[Array, " m"]]:
+    """Nearest point of the polyline `curve` to each of `points`: (segment, fraction).
+
+    Coarse to fine: the nearest of every `coarse`-th vertex first, then exact projection
+    onto the segments within `coarse` vertices of it either way. Exact for curves whose
+    vertices are at most ~`coarse` segments away from the nearest coarse vertex, which
+    holds for refined curves sampled densely enough. Not differentiated (the fit treats
+    the foot points as fixed, see `foot_residual`).
+    """
+    points, curve = jax.lax.stop_gradient((points, curve))
+    coarse, anchors = _anchors(curve, closed, coarse)
+    nearest = jnp.argmin(_anchor_distance2(points, anchors), axis=1)
+    offsets = jnp.arange(-coarse - 1, coarse + 1)
+    return _window_project(points, curve, closed, nearest[:, None] * coarse + offsets[None, :])
+
+
+def track(
+    points: Float[Array, "m d"],
+    curve: Float[Array, "N d"],
+    closed: bool,
+    coarse: int,
+    segment: Int[Array, " m"],
+    radius: int = 2,
+) -> tuple[Int[Array, " m"], Float[Array, " m"]]:
+    """`project`, starting from each point's previous foot segment `segment`.
+
+    Searches the segments within `radius` of the previous one; if any coarse vertex (as in
+    `project`) is nearer to its point than the foot found, the foot has jumped elsewhere
+    and the global search runs instead (`lax.cond`: only then is its cost paid). Between
+    consecutive solver steps feet move little, and this cost a third of `project`
+    (measured, 400 points on 1024 segments).
+    """
+    points, curve = jax.lax.stop_gradient((points, curve))
+    offsets = jnp.arange(-radius, radius + 1)
+    near, fraction = _window_project(points, curve, closed, segment[:, None] + offsets[None, :])
+    a, b = _segment_ends(curve, closed)
+    foot = a[near] + fraction[:, None] * (b[near] - a[near])
+    found2 = jnp.sum((points - foot) ** 2, -1)
+    coarse, anchors = _anchors(curve, closed, coarse)
+    nearest2 = jnp.min(_anchor_distance2(points, anchors), axis=1) + jnp.sum(points**2, -1)
+    # The matrix-product distances carry rounding of about eps |p|^2: an absolute margin
+    # keeps exact fits (feet at distance ~0) from falling back at every step.
+    scale = jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(anchors**2, -1)))
+    margin = 1e3 * jnp.finfo(points.dtype).eps * scale
+    lost = jnp.any(nearest2 + margin < found2)
+    return jax.lax.cond(
+        lost, lambda: project(points, curve, closed, coarse), lambda: (near, fraction)
+    )
 
 
 def foot_residual(
@@ -87,13 +136,9 @@ def foot_residual(
     return jnp.where(interior[:, None], line, vertex)
 
 
-def distances(
-    points: Float[Array, "m d"], curve: Float[Array, "N d"], closed: bool, chunk: int = 256
-) -> Float[Array, " m"]:
-    """Exact distance from each point to the polyline `curve` (all segments checked).
-
-    Chunks of `chunk` points at a time bound the memory to chunk x N x d.
-    """
+def _all_distances(points, curve, closed, chunk):
+    """Distance from each point to the polyline, every segment checked (chunks of `chunk`
+    points bound the memory to chunk x N x d)."""
     a, b = _segment_ends(curve, closed)
     ab = b - a
     length2 = jnp.sum(ab**2, -1)
@@ -110,6 +155,51 @@ def distances(
     padded = jnp.concatenate([points, jnp.repeat(points[-1:], pad, axis=0)])
     out = jax.lax.map(block, padded.reshape(-1, chunk, points.shape[-1]))
     return out.reshape(-1)[:m]
+
+
+def distances(
+    points: Float[Array, "m d"],
+    curve: Float[Array, "N d"],
+    closed: bool,
+    coarse: int = 8,
+    chunk: int = 256,
+) -> Float[Array, " m"]:
+    """Exact distance from each point to the polyline `curve`.
+
+    `project` finds a candidate near the nearest of every `coarse`-th vertex; the result
+    is then certified: the segments from coarse vertex `k` to the next lie within a ball
+    about vertex `k` whose radius is known, so a group can hold a nearer point only if
+    its ball comes closer than the candidate. Groups that `project` did not search
+    (all but the two either side of the nearest coarse vertex) must not; if any does,
+    every segment is checked for every point instead (`lax.cond`). Certified, this cost
+    a tenth of checking every segment (measured, 1024 points and 400 segments).
+    """
+    points, curve = jax.lax.stop_gradient((points, curve))
+    N = curve.shape[0]
+    coarse, anchors = _anchors(curve, closed, coarse)
+    k = anchors.shape[0]
+    nearest = jnp.argmin(_anchor_distance2(points, anchors), axis=1)
+    offsets = jnp.arange(-coarse - 1, coarse + 1)
+    segment, fraction = _window_project(points, curve, closed, nearest[:, None] * coarse + offsets)
+    a, b = _segment_ends(curve, closed)
+    found = jnp.sqrt(jnp.sum((points - a[segment] - fraction[:, None] * (b[segment] - a[segment])) ** 2, -1))
+    # Group g: segments g*coarse ... g*coarse + coarse - 1, inside the ball about the
+    # center of its vertices' bounding box through the farthest of them.
+    vertex = jnp.arange(k)[:, None] * coarse + jnp.arange(coarse + 1)[None, :]
+    vertex = curve[vertex % N if closed else jnp.minimum(vertex, N - 1)]  # (k, coarse+1, d)
+    center = 0.5 * (jnp.min(vertex, axis=1) + jnp.max(vertex, axis=1))
+    radius = jnp.sqrt(jnp.max(jnp.sum((vertex - center[:, None, :]) ** 2, -1), axis=1))
+    to_center = _anchor_distance2(points, center) + jnp.sum(points**2, -1)[:, None]
+    lower = jnp.sqrt(jnp.maximum(to_center, 0.0)) - radius[None, :]
+    group = jnp.arange(k)[None, :]
+    before = (nearest[:, None] - 1) % k if closed else nearest[:, None] - 1
+    searched = (group == nearest[:, None]) | (group == before)
+    # Rounding of the matrix-product distances (about eps |p|^2) must not certify a
+    # group that is truly nearer: a margin relative to the coordinates' scale.
+    scale = jnp.sqrt(jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(curve**2, -1))))
+    margin = 1e-6 * scale
+    unsure = jnp.any(~searched & (lower < found[:, None] + margin))
+    return jax.lax.cond(unsure, lambda: _all_distances(points, curve, closed, chunk), lambda: found)
 
 
 def curve_basis(
@@ -179,6 +269,20 @@ def evaluate(
     return out[: order + 1]
 
 
+def _newton(points, X, V, tau, closed, steps, reach):
+    r"""`steps` Gauss-Newton steps on the Hermite curve for $(C - p) \cdot C' = 0$, each at
+    most `reach` samples long."""
+    N = X.shape[0]
+    top = N if closed else N - 1
+    for _ in range(steps):
+        C, dC = evaluate(X, V, tau, closed)
+        speed2 = jnp.sum(dC**2, -1)
+        step = -jnp.sum((C - points) * dC, -1) / jnp.where(speed2 > 0, speed2, 1.0)
+        tau = tau + jnp.clip(step, -reach, reach)
+        tau = jnp.mod(tau, top) if closed else jnp.clip(tau, 0.0, top)
+    return tau
+
+
 def locate(
     points: Float[Array, "m d"],
     X: Float[Array, "N d"],
@@ -186,6 +290,7 @@ def locate(
     closed: bool,
     coarse: int,
     newton: int = 4,
+    previous: Float[Array, " m"] | None = None,
 ) -> Float[Array, " m"]:
     r"""Foot-point positions (in units of curve samples) of `points` on the curve.
 
@@ -193,22 +298,36 @@ def locate(
     tangents `V` are given, `newton` Gauss-Newton steps on the Hermite curve for
     $(C(\tau) - p) \cdot C'(\tau) = 0$, each at most one sample long (the foot may move
     into the next segment). Not differentiated.
+
+    With `previous` positions (the feet on a nearby curve, e.g. the last solver step's):
+    without tangents, `track` from them; with tangents, the Newton steps start from them
+    and may each move up to `coarse` samples (the Gauss-Newton step is exact for a foot
+    sliding along a straight piece), and the global search runs instead (`lax.cond`) if
+    any of every `coarse`-th curve sample is nearer to its point than the foot found.
+    Measured on glyph fits, this keeps the global search to a few steps per fit.
     """
     points, X = jax.lax.stop_gradient((points, X))
-    N = X.shape[0]
-    segment, fraction = project(points, X, closed, coarse)
-    tau = segment + fraction
-    if V is None:
-        return tau
+    if previous is not None and V is None:
+        start = jnp.floor(jax.lax.stop_gradient(previous)).astype(jnp.int32)
+        segment, fraction = track(points, X, closed, coarse, start)
+        return segment + fraction
+    if previous is None:
+        segment, fraction = project(points, X, closed, coarse)
+        tau = segment + fraction
+        if V is None:
+            return tau
+        return _newton(points, X, jax.lax.stop_gradient(V), tau, closed, newton, 1.0)
     V = jax.lax.stop_gradient(V)
-    top = N if closed else N - 1
-    for _ in range(newton):
-        C, dC = evaluate(X, V, tau, closed)
-        speed2 = jnp.sum(dC**2, -1)
-        step = -jnp.sum((C - points) * dC, -1) / jnp.where(speed2 > 0, speed2, 1.0)
-        tau = tau + jnp.clip(step, -1.0, 1.0)
-        tau = jnp.mod(tau, top) if closed else jnp.clip(tau, 0.0, top)
-    return tau
+    tau = _newton(points, X, V, jax.lax.stop_gradient(previous), closed, newton, float(coarse))
+    C, _ = evaluate(X, V, tau, closed)
+    found2 = jnp.sum((C - points) ** 2, -1)
+    coarse, anchors = _anchors(X, closed, coarse)
+    nearest2 = jnp.min(_anchor_distance2(points, anchors), axis=1) + jnp.sum(points**2, -1)
+    scale = jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(anchors**2, -1)))
+    lost = jnp.any(nearest2 + 1e3 * jnp.finfo(points.dtype).eps * scale < found2)
+    return jax.lax.cond(
+        lost, lambda: locate(points, X, V, closed, coarse, newton), lambda: tau
+    )
 
 
 def chord_band(points: Float[Array, "m d"], closed: bool) -> Float[Array, " m"]:

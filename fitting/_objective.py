@@ -27,7 +27,15 @@ import jax.numpy as jnp
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
-from ._curve import chord_band, curve_basis, evaluate, foot_residual, locate, project
+from ._curve import (
+    chord_band,
+    curve_basis,
+    evaluate,
+    foot_residual,
+    locate,
+    project,
+    track,
+)
 from ._init import second_differences
 from ._params import from_unconstrained
 
@@ -75,18 +83,25 @@ class Objective(eqx.Module):
         scheme = from_unconstrained(base, self.names, y["params"])
         return scheme, *self.basis_of(scheme, target.dtype)
 
-    def feet(self, y, args):
+    def feet(self, y, args, previous=None):
         """Foot points: each sample's curve position and each held curve sample's
-        (segment, fraction) on the target polyline. Not differentiated."""
+        (segment, fraction) on the target polyline. Not differentiated.
+
+        With the `previous` feet (e.g. the last solver step's), each foot is searched near
+        its previous position first (`_curve.track`), globally only where that fails."""
         target, weights = args[:2]
         _, A, V = self.basis(y, args)
         P = y["control"]
         X = A @ P
         tau = locate(target, X, None if V is None else V @ P, self.closed,
-                     coarse=max(1, min(8, self.num_curve // 64)))
+                     coarse=max(1, min(8, self.num_curve // 64)),
+                     previous=None if previous is None else previous[0])
         held = X[self.held]
-        segment, fraction = project(held, target, self.closed,
-                                    coarse=max(1, min(8, self.num_target // 64)))
+        coarse = max(1, min(8, self.num_target // 64))
+        if previous is None:
+            segment, fraction = project(held, target, self.closed, coarse)
+        else:
+            segment, fraction = track(held, target, self.closed, coarse, previous[1], radius=6)
         if not self.closed:
             tau, segment, fraction = self._pin_ends(weights, tau, segment, fraction)
         return jax.lax.stop_gradient((tau, segment, fraction))
@@ -158,7 +173,7 @@ class Objective(eqx.Module):
         implicit adjoint; see `residuals_at` for how the feet enter the derivatives)."""
         return self.residuals_at(y, args, self.feet(y, args))
 
-    def quadratic_model(self, y, args):
+    def quadratic_model(self, y, args, feet=None):
         r"""Loss, half gradient and half Hessian of the loss at `y` (flattened in
         `ravel_pytree(y)` order): `loss(y + x) ~ loss + 2 g.x + x.H.x`.
 
@@ -179,8 +194,11 @@ class Objective(eqx.Module):
         above $|C'|^2 / 2$ (a sample near its foot's center of curvature). The
         control-point blocks are assembled in closed form (the curve is linear in them);
         only scheme-parameter columns, if any, come from forward-mode autodiff.
+
+        `feet` are the foot points to use (`feet(y, args)` when None).
         """
-        feet = self.feet(y, args)
+        if feet is None:
+            feet = self.feet(y, args)
         target, weights, _, smoothing, _ = args
         tau, segment, fraction = feet
         _, A, V = self.basis(y, args)

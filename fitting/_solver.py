@@ -16,8 +16,9 @@ damping is Levenberg's (a multiple of the identity, relative to the mean of the 
 matrix's diagonal), not Marquardt's diagonal scaling: points sliding along straight parts
 of the curve leave some diagonal entries near zero, and those directions need damping.
 
-It stops (successfully) when an accepted step lowers the loss by at most
-`rtol * loss + atol`, or when the loss is below `atol`; it reports
+It stops (successfully) when two accepted steps in a row each lower the loss by at most
+`rtol * loss + atol` (one such step may be a heavily damped one far from a minimum), or
+when the loss is below `atol`; it reports
 `nonlinear_divergence` when no step can lower the loss although the gradient does not
 vanish. Step 0 only evaluates the model at
 the starting point (so `num_steps` counts it).
@@ -35,12 +36,14 @@ from jaxtyping import Array, Bool, Float, Int
 
 
 class _State(eqx.Module):
+    hint: Any  # the problem's data carried from step to step (e.g. foot points)
     loss: Float[Array, ""]
     gradient: Float[Array, " D"]
     hessian: Float[Array, "D D"]
     damping: Float[Array, ""]
     growth: Float[Array, ""]
     num_steps: Int[Array, ""]
+    small: Bool[Array, ""]
     terminate: Bool[Array, ""]
     result: optx.RESULTS
 
@@ -48,15 +51,19 @@ class _State(eqx.Module):
 class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     """Levenberg-Marquardt with a problem-supplied linearization (see module docstring).
 
-    `model(y, args)` returns the loss (a sum of squares), half its gradient and half its
-    Hessian (or a Gauss-Newton approximation), flattened in
-    `jax.flatten_util.ravel_pytree(y)` order; `fn` itself is only used by optimistix for
-    the implicit adjoint.
+    `model(y, args, hint)` returns the loss (a sum of squares), half its gradient and half
+    its Hessian (or a Gauss-Newton approximation), flattened in
+    `jax.flatten_util.ravel_pytree(y)` order. `hint(y, args, previous)` returns data the
+    model needs at `y` that are cheaper to find from their values at the previous
+    accepted point (the fit's foot points; `previous` is None at the start); without
+    `hint`, the model gets None. `fn` itself is only used by optimistix for the implicit
+    adjoint.
     """
 
     rtol: float
     atol: float
     model: Callable = eqx.field(static=True)
+    hint: Callable | None = eqx.field(static=True, default=None)
     verbose: Callable | None = eqx.field(static=True, default=None)
     norm: Callable = eqx.field(static=True, default=optx.max_norm)  # optimistix's interface
 
@@ -66,12 +73,14 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         flat, _ = ravel_pytree(y)
         size, dtype = flat.size, flat.dtype
         return _State(
+            hint=None if self.hint is None else self.hint(y, args, None),
             loss=jnp.asarray(jnp.inf, dtype),
             gradient=jnp.zeros((size,), dtype),
             hessian=jnp.zeros((size, size), dtype),
             damping=jnp.asarray(1e-3, dtype),
             growth=jnp.asarray(2.0, dtype),
             num_steps=jnp.array(0),
+            small=jnp.array(False),
             terminate=jnp.array(False),
             result=optx.RESULTS.successful,
         )
@@ -86,7 +95,8 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         factor = jax.scipy.linalg.cho_factor(H + state.damping * scale * jnp.eye(size, dtype=H.dtype))
         delta = jnp.where(first, 0.0, -jax.scipy.linalg.cho_solve(factor, g))
         trial = unravel(flat + delta)
-        loss, gradient, hessian = self.model(trial, args)
+        hint = None if self.hint is None else self.hint(trial, args, state.hint)
+        loss, gradient, hessian = self.model(trial, args, hint)
         predicted = -(2 * g @ delta + delta @ (H @ delta))
         actual = state.loss - loss
         ratio = actual / jnp.where(predicted > 0, predicted, 1.0)
@@ -102,9 +112,10 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
             ),
         )
         growth = jnp.where(accept, 2.0, 2 * state.growth).astype(state.growth.dtype)
-        done = ~first & accept & (
-            (actual <= self.rtol * state.loss + self.atol) | (loss <= self.atol)
-        )
+        # Converged when two accepted steps in a row lower the loss by at most rtol of it
+        # (one small decrease may come from a heavily damped step, not a minimum).
+        small = ~first & accept & (actual <= self.rtol * state.loss + self.atol)
+        done = (small & state.small) | (accept & (loss <= self.atol))
         # The damping cannot grow without bound: past 1e16 of the matrix's scale the steps
         # vanish in rounding and no step lowers the loss. That is a minimum to working
         # precision only if the gradient vanishes too; otherwise the model and the loss
@@ -116,12 +127,14 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
                          loss_this_step=("Loss on this step", 0.5 * loss))
         keep = lambda new, old: jnp.where(accept, new, old)
         new_state = _State(
+            hint=jax.tree.map(keep, hint, state.hint),
             loss=keep(loss, state.loss),
             gradient=keep(gradient, state.gradient),
             hessian=keep(hessian, state.hessian),
             damping=jnp.minimum(damping, 1e20),
             growth=growth,
             num_steps=state.num_steps + 1,
+            small=jnp.where(accept, small, state.small),
             terminate=done | stuck,
             result=optx.RESULTS.where(
                 stuck & ~flat_gradient, optx.RESULTS.nonlinear_divergence,

@@ -213,10 +213,12 @@ def test_batch_equals_loop_and_nan_item_fails_alone():
 
 
 def test_ragged_batch_equals_single_fits():
+    # Converged tightly: the padded and unpadded programs round differently, and at the
+    # default tol their iterations may stop at different points of a flat valley.
     targets = [blob(90, seed=7), blob(130, seed=8)]
-    batch = fitting.fit_batch(targets, js.FourPoint(0.07), 10, levels=6, max_steps=400)
+    batch = fitting.fit_batch(targets, js.FourPoint(0.07), 10, levels=6, max_steps=400, tol=1e-10)
     for i, t in enumerate(targets):
-        single = fitting.fit(t, js.FourPoint(0.07), 10, levels=6, max_steps=400)
+        single = fitting.fit(t, js.FourPoint(0.07), 10, levels=6, max_steps=400, tol=1e-10)
         np.testing.assert_allclose(batch.rms[i], single.rms, rtol=1e-6)
         np.testing.assert_allclose(batch.control_points[i], single.control_points, atol=1e-7)
 
@@ -247,6 +249,68 @@ def test_sharded_batch_equals_unsharded():
     assert out.returncode == 0, out.stderr[-3000:]
     assert float(out.stdout.strip().splitlines()[-1]) < 1e-9
     assert "outlines" in out.stderr  # the batch's progress line, across two devices
+
+
+# --------------------------------------------------------------------------------------
+# Foot points and distances: the fast paths against brute force
+
+
+def _executions(monkeypatch, module, name):
+    """Count the executions (not the tracings) of `module.name`: a `lax.cond` branch."""
+    calls = []
+    original = getattr(module, name)
+
+    def spy(*args, **kwargs):
+        jax.debug.callback(lambda: calls.append(1))
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(module, name, spy)
+    return calls
+
+
+@pytest.mark.parametrize("closed", [True, False])
+@pytest.mark.parametrize("spread, fallback", [(0.002, False), (0.3, True)])
+def test_distances_equal_brute_force(monkeypatch, closed, spread, fallback):
+    """`distances` certifies its fast answer, else checks every segment; either way it
+    equals the brute-force distance."""
+    from fitting import _curve
+
+    polyline = glyph_outline("S", 400) if closed else glyph_outline("S", 400)[:250]
+    rng = np.random.default_rng(5)
+    size = np.linalg.norm(np.ptp(polyline, axis=0))
+    points = polyline[rng.integers(0, len(polyline), 700)]
+    points = points + spread * size * rng.standard_normal(points.shape)
+    calls = _executions(monkeypatch, _curve, "_all_distances")
+    ours = _curve.distances(jnp.asarray(points), jnp.asarray(polyline), closed)
+    jax.block_until_ready(ours)
+    assert bool(calls) == fallback
+    np.testing.assert_allclose(ours, polyline_distances(points, polyline, closed), rtol=1e-12,
+                               atol=1e-15)
+
+
+@pytest.mark.parametrize("angle, fallback", [(0.002, False), (0.8, True)])
+def test_feet_tracked_from_the_last_step_are_the_nearest_points(monkeypatch, angle, fallback):
+    """Feet found from the previous curve's feet are the nearest points of the new curve
+    (brute force on a 64x finer polyline of it), after a small move and after a large one
+    that makes the search start over."""
+    from fitting import _curve
+
+    samples = jnp.asarray(blob(300, seed=4))
+    n, levels, scheme = 12, 6, js.CubicBSpline()
+    A, V = _curve.curve_basis(scheme, n, levels, "closed", samples.dtype, True)
+    theta = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    P = np.stack([1.1 * np.cos(theta), np.sin(theta)], -1)
+    previous = _curve.locate(samples, A @ P, V @ P, True, coarse=8)
+    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    moved = P @ rotation.T
+    calls = _executions(monkeypatch, _curve, "project")
+    tau = _curve.locate(samples, A @ moved, V @ moved, True, coarse=8, previous=previous)
+    jax.block_until_ready(tau)
+    assert bool(calls) == fallback
+    feet, _ = _curve.evaluate(A @ moved, V @ moved, tau, True)
+    found = np.linalg.norm(np.asarray(feet) - np.asarray(samples), axis=1)
+    dense = np.asarray(js.limit_points(js.refine(moved, scheme, levels + 6), scheme))
+    np.testing.assert_allclose(found, polyline_distances(samples, dense), rtol=0, atol=1e-8)
 
 
 # --------------------------------------------------------------------------------------
