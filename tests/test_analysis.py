@@ -6,6 +6,10 @@ Hölder exponents (Daubechies and Lagarias 1992 for D4; B-splines: degree).
 """
 
 import math
+import os
+import subprocess
+import sys
+import textwrap
 
 import equinox as eqx
 import jax
@@ -360,3 +364,29 @@ def dataclasses_error():
     import dataclasses
 
     return dataclasses.FrozenInstanceError
+
+
+def test_smoothness_and_limits_of_float32_masks():
+    """With x64 off the masks are float32, and coefficients such as -w and 1/2 + w round
+    separately: the analysis must still see four-point with w = 0.07 as C^1 (its float64
+    answer) and give limit points, which need it. A fresh interpreter: x64 is on here."""
+    script = textwrap.dedent(
+        """
+        import jax, numpy as np
+        import jaxsubdiv as js
+        assert not jax.config.jax_enable_x64
+        s = js.smoothness(js.FourPoint(0.07))
+        print(s.converges, s.continuity, s.holder_lower)
+        P = np.random.default_rng(0).normal(size=(9, 2)).astype(np.float32)
+        refined = js.refine(P, js.FourPoint(0.07), 6)
+        print(np.asarray(js.limit_points(refined, js.FourPoint(0.07))).dtype)
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         env={**os.environ, "JAX_ENABLE_X64": "0"})
+    assert out.returncode == 0, out.stderr
+    converges, continuity, holder = out.stdout.split("\n")[0].split()
+    reference = js.smoothness(js.FourPoint(0.07))  # float64
+    assert converges == "True" and int(continuity) == reference.continuity == 1
+    assert abs(float(holder) - reference.holder_lower) < 1e-3
+    assert out.stdout.split("\n")[1] == "float32"

@@ -208,10 +208,10 @@ _PASSES = (
 
 
 @ft.lru_cache(maxsize=4096)
-def _smoothness_cached(mask: tuple[float, ...]) -> Smoothness:
+def _smoothness_cached(mask: tuple[float, ...], tol: float = 1e-9) -> Smoothness:
     a = np.asarray(mask)
     even, odd = a[0::2].sum(), a[1::2].sum()  # parity relative to the first index
-    if not (abs(even - 1) < 1e-9 and abs(odd - 1) < 1e-9):
+    if not (abs(even - 1) < tol and abs(odd - 1) < tol):
         return Smoothness(
             converges=False,
             holder_lower=-math.inf,
@@ -226,7 +226,7 @@ def _smoothness_cached(mask: tuple[float, ...]) -> Smoothness:
                 "scheme does not reproduce constants (not affine invariant)"
             ),
         )
-    n, q = factor_symbol(a)
+    n, q = factor_symbol(a, tol=0.1 * tol)
     matrices = transition_matrices(q)
     for effort in _PASSES:
         lo, hi = jsr_bounds(matrices, **effort)
@@ -307,10 +307,14 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
             f"`smoothness`: {type(scheme).__name__} holds a batch of parameter values (mask "
             f"shape {mask.shape}); call `smoothness` once per value."
         )
+    # The mask's rounding sets how exactly its sums and factors can hold: 1e-9 in
+    # float64, about 1e-5 for a float32 mask (e.g. with x64 off), whose coefficients
+    # (such as -w and 1/2 + w) round separately.
+    tol = max(1e-9, 128 * float(np.finfo(np.asarray(mask).dtype).eps))
     values = np.asarray(mask, dtype=np.float64)
     if not np.all(np.isfinite(values)):
         raise ValueError(f"`smoothness`: the mask has non-finite coefficients: {values}.")
     # Parity of the first coefficient: rotate so index 0 of the tuple is an even index.
     if scheme.mask_start % 2:
         values = np.concatenate([[0.0], values])
-    return _smoothness_cached(tuple(float(v) for v in values))
+    return _smoothness_cached(tuple(float(v) for v in values), tol)
