@@ -246,7 +246,7 @@ def evaluate(
     closed: bool,
     order: int = 1,
 ) -> tuple[Float[Array, "m ..."], ...]:
-    r"""The curve and its derivatives up to `order` (1 or 2) at the global positions `tau`
+    r"""The curve and its derivatives up to `order` (0, 1 or 2) at the global positions `tau`
     (units of samples).
 
     With tangents `V`, the cubic Hermite interpolant of the samples `X` and their exact
@@ -274,13 +274,23 @@ def _newton(points, X, V, tau, closed, steps, reach):
     most `reach` samples long."""
     N = X.shape[0]
     top = N if closed else N - 1
-    for _ in range(steps):
+
+    def newton(_, tau):
         C, dC = evaluate(X, V, tau, closed)
         speed2 = jnp.sum(dC**2, -1)
         step = -jnp.sum((C - points) * dC, -1) / jnp.where(speed2 > 0, speed2, 1.0)
-        tau = tau + jnp.clip(step, -reach, reach)
-        tau = jnp.mod(tau, top) if closed else jnp.clip(tau, 0.0, top)
-    return tau
+        trial = tau + jnp.clip(step, -reach, reach)
+        trial = jnp.mod(trial, top) if closed else jnp.clip(trial, 0.0, top)
+        # Only steps that bring the foot nearer: near a sample's center of curvature the
+        # Gauss-Newton step can overshoot to a farther point (measured: a tracked foot
+        # 5e-7 worse than its start stalled 4 of 1,000 fits).
+        (moved,) = evaluate(X, V, trial, closed, order=0)
+        nearer = jnp.sum((moved - points) ** 2, -1) <= jnp.sum((C - points) ** 2, -1)
+        return jnp.where(nearer, trial, tau)
+
+    # A loop, not unrolled: the search appears several times in the fit's program, and
+    # unrolled copies cost compile time.
+    return jax.lax.fori_loop(0, steps, newton, tau)
 
 
 def locate(

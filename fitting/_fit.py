@@ -225,9 +225,14 @@ def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, n
     A, V = objective.basis_of(fitted, dtype) if names else basis
     X = A @ P
     if hermite:
-        # Distances to the Hermite curve at freshly found feet (each a point of the curve,
-        # so never below the true distance to it).
-        tau = locate(T, X, V @ P, closed, coarse=max(1, min(8, N // 64)))
+        # Distances to the Hermite curve at its nearest points (each a point of the curve,
+        # so never below the true distance to it). The default solver found them at its
+        # last accepted point (closed curves; open ones pin their ends' feet) with the
+        # same search as `locate`: reusing them saves compiling that search once more.
+        if closed and isinstance(solver, FootPointLevenbergMarquardt):
+            tau = sol.state.hint[0]
+        else:
+            tau = locate(T, X, V @ P, closed, coarse=max(1, min(8, N // 64)))
         feet, _ = evaluate(X, V @ P, tau, closed)
         t2c = jnp.sqrt(jnp.sum((feet - T) ** 2, -1))
     else:

@@ -55,8 +55,8 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     its Hessian (or a Gauss-Newton approximation), flattened in
     `jax.flatten_util.ravel_pytree(y)` order. `hint(y, args, previous)` returns data the
     model needs at `y` that are cheaper to find from their values at the previous
-    accepted point (the fit's foot points; `previous` is None at the start); without
-    `hint`, the model gets None. `fn` itself is only used by optimistix for the implicit
+    accepted point (the fit's foot points); the first step passes zeros as `previous`,
+    so `hint` must find them from any start. Without `hint`, the model gets None. `fn` itself is only used by optimistix for the implicit
     adjoint.
     """
 
@@ -73,7 +73,7 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         flat, _ = ravel_pytree(y)
         size, dtype = flat.size, flat.dtype
         return _State(
-            hint=None if self.hint is None else self.hint(y, args, None),
+            hint=self._first_hint(y, args),
             loss=jnp.asarray(jnp.inf, dtype),
             gradient=jnp.zeros((size,), dtype),
             hessian=jnp.zeros((size, size), dtype),
@@ -84,6 +84,15 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
             terminate=jnp.array(False),
             result=optx.RESULTS.successful,
         )
+
+    def _first_hint(self, y, args):
+        # Zeros of the hint's shape: the first step's `hint(y, args, zeros)` must then
+        # find the data afresh (the fit's foot-point search falls back to its global
+        # search), so that the program holds one copy of that search, not two.
+        if self.hint is None:
+            return None
+        shapes = jax.eval_shape(self.hint, y, args, None)
+        return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
 
     def step(self, fn, y, args, options, state: _State, tags) -> tuple[Any, _State, None]:
         flat, unravel = ravel_pytree(y)
@@ -118,8 +127,11 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         done = (small & state.small) | (accept & (loss <= self.atol))
         # The damping cannot grow without bound: past 1e16 of the matrix's scale the steps
         # vanish in rounding and no step lowers the loss. That is a minimum to working
-        # precision only if the gradient vanishes too; otherwise the model and the loss
-        # disagree (e.g. from a start far outside the data) and the fit has failed.
+        # precision if the gradient vanishes too, or if the last accepted step already
+        # lowered the loss by less than rtol (at a kink of the loss, where feet switch
+        # between branches of the curve, the gradient need not vanish); otherwise the
+        # model and the loss disagree (e.g. from a start far outside the data) and the
+        # fit has failed.
         stuck = ~accept & (damping > 1e16)
         flat_gradient = jnp.max(jnp.abs(g)) <= 1e-6 * jnp.maximum(1.0, jnp.sqrt(state.loss))
         if callable(self.verbose):
@@ -137,7 +149,7 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
             small=jnp.where(accept, small, state.small),
             terminate=done | stuck,
             result=optx.RESULTS.where(
-                stuck & ~flat_gradient, optx.RESULTS.nonlinear_divergence,
+                stuck & ~flat_gradient & ~state.small, optx.RESULTS.nonlinear_divergence,
                 optx.RESULTS.successful,
             ),
         )
