@@ -8,6 +8,9 @@ step is one small Cholesky solve.
 The solver is an ordinary optimistix least-squares solver, so `optimistix.least_squares`
 runs it: `max_steps`, `throw`, the result codes and the implicit adjoint work unchanged.
 
+When the damped matrix is not positive definite (the exact Hessian is indefinite away
+from a minimum), the damping is raised tenfold until it is, within the step, before the
+model is evaluated at the trial point.
 Steps follow Nielsen's damping update (H. B. Nielsen, "Damping parameter in Marquardt's
 method", IMM-REP-1999-05): accept when the actual decrease is a positive fraction of the
 decrease the linear model predicts, and scale the damping by
@@ -101,8 +104,27 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         first = state.num_steps == 0
         trace = jnp.trace(H)
         scale = jnp.where(trace > 0, trace / size, 1.0)
-        factor = jax.scipy.linalg.cho_factor(H + state.damping * scale * jnp.eye(size, dtype=H.dtype))
-        delta = jnp.where(first, 0.0, -jax.scipy.linalg.cho_solve(factor, g))
+        eye = scale * jnp.eye(size, dtype=H.dtype)
+        solve = lambda damping: -jax.scipy.linalg.cho_solve(
+            jax.scipy.linalg.cho_factor(H + damping * eye), g
+        )
+
+        # The exact Hessian is indefinite away from a minimum, and a damping too small
+        # to make it definite fails the factorization. Raise the damping tenfold until it
+        # succeeds (a factorization is cheap) instead of evaluating the model at a
+        # non-finite trial and rejecting it (measured: a third of all steps on glyphs).
+        def undefined(carry):
+            damping, delta = carry
+            return ~jnp.all(jnp.isfinite(delta)) & (damping < 1e16)
+
+        def raise_damping(carry):
+            damping, _ = carry
+            return 10 * damping, solve(10 * damping)
+
+        raised, delta = jax.lax.while_loop(
+            undefined, raise_damping, (state.damping, solve(state.damping))
+        )
+        delta = jnp.where(first, 0.0, delta)
         trial = unravel(flat + delta)
         hint = None if self.hint is None else self.hint(trial, args, state.hint)
         loss, gradient, hessian = self.model(trial, args, hint)
@@ -116,8 +138,8 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
             state.damping,
             jnp.where(
                 accept,
-                state.damping * jnp.maximum(1 / 3, 1 - (2 * ratio - 1) ** 3),
-                state.damping * state.growth,
+                raised * jnp.maximum(1 / 3, 1 - (2 * ratio - 1) ** 3),
+                raised * state.growth,
             ),
         )
         growth = jnp.where(accept, 2.0, 2 * state.growth).astype(state.growth.dtype)
