@@ -199,8 +199,12 @@ def median_time(fn, repeats):
     return statistics.median(times), times, out
 
 
+#: Options of every `fit` and `fit_batch` call (`--tol`; empty: the library's defaults).
+FIT_OPTIONS: dict = {}
+
+
 def fit_one(samples, n, **kw):
-    result = fitting.fit(samples, SCHEME, n, on_failure="ignore", **kw)
+    result = fitting.fit(samples, SCHEME, n, on_failure="ignore", **FIT_OPTIONS, **kw)
     result.rms.block_until_ready()
     return result
 
@@ -295,7 +299,7 @@ def run_batch(targets, n, sizes, loop_count, save):
           f"({out['loop']['fits_per_second']:.1f} fits/s)", flush=True)
     for size, repeats in sizes:
         batch = targets[:size]
-        call = lambda: fitting.fit_batch(batch, SCHEME, n, max_steps=BATCH_STEPS,
+        call = lambda: fitting.fit_batch(batch, SCHEME, n, max_steps=BATCH_STEPS, **FIT_OPTIONS,
                                          on_failure="ignore")
         first, result = timed(call)
         if repeats:
@@ -340,7 +344,8 @@ def markdown(data):
         f"({data['repeats']} warm calls of `fit`, {data['scipy_repeats']} of each scipy "
         "method); compare ratios within this run.",
         "",
-        "Closed cubic B-spline, float64, 400 samples per outline. `first` is the first "
+        f"Closed cubic B-spline, float64, 400 samples per outline, `tol` "
+        f"{data.get('tol') or 'the library default'}. `first` is the first "
         "`fit` call for that n (tracing, compilation and one fit; later outlines with the "
         "same n reuse it). Errors: independent two-sided RMS and max of each method's "
         "dense curve against the samples, in units of the outline (glyphs are ~0.7 tall, "
@@ -419,7 +424,8 @@ def targets_met(single, batch):
     )
     out.append(
         f"Warm fit at least 20x faster than the foot-point fit: **{'met' if met else 'NOT met'}**"
-        f" in {sum(r['speedup_vs_footpoint'] >= 20 for r in single)}/{len(single)} cases; "
+        f" (reached in {sum(r['speedup_vs_footpoint'] >= 20 for r in single)}/{len(single)} "
+        "cases); "
         f"slowest {slowest['speedup_vs_footpoint']:.1f}x ({slowest['shape']}, n = "
         f"{slowest['n']})" + (f"; at n = 32: {text32}." if at32 else ".")
     )
@@ -447,6 +453,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--smoke", action="store_true", help="tiny case, well under a minute")
     parser.add_argument("--output", type=pathlib.Path, default=None, help="JSON path")
+    parser.add_argument("--tol", type=float, default=None,
+                        help="`tol` of every fit (default: the library's)")
     args = parser.parse_args()
     output = args.output or RESULTS / ("fit_smoke.json" if args.smoke else "fit.json")
     output.parent.mkdir(parents=True, exist_ok=True)
@@ -459,15 +467,17 @@ def main():
     else:
         shapes = {"S": glyph_outline("S"), "a": glyph_outline("a"), "superellipse": superellipse()}
         ns, repeats, scipy_repeats = (16, 32, 64), 5, 3
-        # fit_batch over 1000 items took about 10 minutes per call here: one call.
+        # The 1000-item batch is the slowest call: run once.
         batch_n, batch_sizes, loop_count = 16, ((10, 3), (100, 1), (1000, 0)), 50
     data = dict(
         machine=f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
         f"jax {jax.__version__}, scipy {scipy.__version__}, numpy {np.__version__}, "
         f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}",
         smoke=args.smoke, repeats=repeats, scipy_repeats=scipy_repeats,
-        footpoint_iterations=FOOTPOINT_ITERATIONS,
+        footpoint_iterations=FOOTPOINT_ITERATIONS, tol=args.tol,
     )
+    if args.tol is not None:
+        FIT_OPTIONS["tol"] = args.tol
 
     def save(batch):
         data["batch"] = batch

@@ -63,7 +63,8 @@ def main():
         print(f"  central difference, h = {h:g}: {finite:.6g}")
 
     def control_given_smoothing(smoothing):
-        return fitting.fit(target, js.FourPoint(1 / 16), 16, smoothing=smoothing).control_points
+        return fitting.fit(target, js.FourPoint(1 / 16), 16, smoothing=smoothing,
+                           tol=1e-10).control_points
 
     velocity = np.asarray(jax.jacfwd(control_given_smoothing)(0.01))  # dP / d smoothing
     print(f"largest |dP/d smoothing| at smoothing 0.01: {np.abs(velocity).max():.3g}")

@@ -54,6 +54,16 @@ def _anchor_distance2(points, anchors):
     return jnp.sum(anchors**2, -1)[None, :] - 2 * points @ anchors.T
 
 
+def _lost(points, anchors, found2):
+    """Whether some anchor is nearer to its point than the foot found (squared distances
+    `found2`): then that foot is not the nearest point, and a global search is due."""
+    nearest2 = jnp.min(_anchor_distance2(points, anchors), axis=1) + jnp.sum(points**2, -1)
+    # The matrix-product distances carry rounding of about eps |p|^2: an absolute margin
+    # keeps exact fits (feet at distance ~0) from falling back at every step.
+    scale = jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(anchors**2, -1)))
+    return jnp.any(nearest2 + 1e3 * jnp.finfo(points.dtype).eps * scale < found2)
+
+
 def project(
     points: Float[Array, "m d"], curve: Float[Array, "N d"], closed: bool, coarse: int
 ) -> tuple[Int[Array, " m"], Float[Array, " m"]]:
@@ -85,24 +95,20 @@ def track(
     Searches the segments within `radius` of the previous one; if any coarse vertex (as in
     `project`) is nearer to its point than the foot found, the foot has jumped elsewhere
     and the global search runs instead (`lax.cond`: only then is its cost paid). Between
-    consecutive solver steps feet move little, and this cost a third of `project`
-    (measured, 400 points on 1024 segments).
+    consecutive solver steps feet move little: the fit's foot points (400 samples on 1024
+    curve samples, and the held curve points on the samples) took 0.24 ms this way
+    against 0.48 ms by the global search (measured).
     """
     points, curve = jax.lax.stop_gradient((points, curve))
     offsets = jnp.arange(-radius, radius + 1)
     near, fraction = _window_project(points, curve, closed, segment[:, None] + offsets[None, :])
     a, b = _segment_ends(curve, closed)
     foot = a[near] + fraction[:, None] * (b[near] - a[near])
-    found2 = jnp.sum((points - foot) ** 2, -1)
     coarse, anchors = _anchors(curve, closed, coarse)
-    nearest2 = jnp.min(_anchor_distance2(points, anchors), axis=1) + jnp.sum(points**2, -1)
-    # The matrix-product distances carry rounding of about eps |p|^2: an absolute margin
-    # keeps exact fits (feet at distance ~0) from falling back at every step.
-    scale = jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(anchors**2, -1)))
-    margin = 1e3 * jnp.finfo(points.dtype).eps * scale
-    lost = jnp.any(nearest2 + margin < found2)
     return jax.lax.cond(
-        lost, lambda: project(points, curve, closed, coarse), lambda: (near, fraction)
+        _lost(points, anchors, jnp.sum((points - foot) ** 2, -1)),
+        lambda: project(points, curve, closed, coarse),
+        lambda: (near, fraction),
     )
 
 
@@ -167,12 +173,13 @@ def distances(
     """Exact distance from each point to the polyline `curve`.
 
     `project` finds a candidate near the nearest of every `coarse`-th vertex; the result
-    is then certified: the segments from coarse vertex `k` to the next lie within a ball
-    about vertex `k` whose radius is known, so a group can hold a nearer point only if
-    its ball comes closer than the candidate. Groups that `project` did not search
-    (all but the two either side of the nearest coarse vertex) must not; if any does,
-    every segment is checked for every point instead (`lax.cond`). Certified, this cost
-    a tenth of checking every segment (measured, 1024 points and 400 segments).
+    is then certified: the segments from coarse vertex `k` to the next lie within a known
+    ball (about the center of their vertices' bounding box), so that group can hold a
+    nearer point only if its ball comes closer than the candidate. Groups that `project`
+    did not search (all but the two either side of the nearest coarse vertex) must not;
+    if any does, every segment is checked for every point instead (`lax.cond`).
+    Certified, this took 0.8-2 ms against 4-5 ms for checking every segment (measured,
+    1024 points near a 400-segment outline).
     """
     points, curve = jax.lax.stop_gradient((points, curve))
     N = curve.shape[0]
@@ -329,14 +336,12 @@ def locate(
         return _newton(points, X, jax.lax.stop_gradient(V), tau, closed, newton, 1.0)
     V = jax.lax.stop_gradient(V)
     tau = _newton(points, X, V, jax.lax.stop_gradient(previous), closed, newton, float(coarse))
-    C, _ = evaluate(X, V, tau, closed)
-    found2 = jnp.sum((C - points) ** 2, -1)
-    coarse, anchors = _anchors(X, closed, coarse)
-    nearest2 = jnp.min(_anchor_distance2(points, anchors), axis=1) + jnp.sum(points**2, -1)
-    scale = jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(anchors**2, -1)))
-    lost = jnp.any(nearest2 + 1e3 * jnp.finfo(points.dtype).eps * scale < found2)
+    (C,) = evaluate(X, V, tau, closed, order=0)
+    _, anchors = _anchors(X, closed, coarse)
     return jax.lax.cond(
-        lost, lambda: locate(points, X, V, closed, coarse, newton), lambda: tau
+        _lost(points, anchors, jnp.sum((C - points) ** 2, -1)),
+        lambda: locate(points, X, V, closed, coarse, newton),
+        lambda: tau,
     )
 
 

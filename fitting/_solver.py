@@ -23,7 +23,7 @@ It stops (successfully) when two accepted steps in a row each lower the loss by 
 `rtol * loss + atol` (one such step may be a heavily damped one far from a minimum), or
 when the loss is below `atol`; it reports
 `nonlinear_divergence` when no step can lower the loss although the gradient does not
-vanish. Step 0 only evaluates the model at
+vanish and the last accepted step was not such a small one. Step 0 only evaluates the model at
 the starting point (so `num_steps` counts it).
 """
 
@@ -59,8 +59,8 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     `jax.flatten_util.ravel_pytree(y)` order. `hint(y, args, previous)` returns data the
     model needs at `y` that are cheaper to find from their values at the previous
     accepted point (the fit's foot points); the first step passes zeros as `previous`,
-    so `hint` must find them from any start. Without `hint`, the model gets None. `fn` itself is only used by optimistix for the implicit
-    adjoint.
+    so `hint` must find them from any start. Without `hint`, the model gets None. `fn`
+    itself is only used by optimistix for the implicit adjoint.
     """
 
     rtol: float
