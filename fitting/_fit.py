@@ -574,7 +574,10 @@ def _available_cores() -> int:
 def _run_batch(targets, weights, scheme, smoothing, static, devices, threads):
     size = targets.shape[0]
     count = len(devices)
-    if count == 1 and devices[0].platform == "cpu" and threads > 1 and size >= 2 * threads:
+    # Threads only for concrete arrays: inside a trace (`jit`, `grad` of the batch) the
+    # whole batch is one program anyway, and tracing is not shared across threads.
+    concrete = not is_traced(targets)
+    if concrete and count == 1 and devices[0].platform == "cpu" and 1 < threads <= size // 2:
         return _run_threaded(targets, weights, scheme, smoothing, static, devices[0], threads)
     extra = -size % count  # the batch must divide evenly over the devices
     if extra:

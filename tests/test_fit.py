@@ -236,6 +236,16 @@ def test_threaded_batch_equals_one_thread():
         fitting.fit_batch(targets, js.CubicBSpline(), 8, threads=0)
 
 
+def test_batch_under_jit_and_grad():
+    """Inside a trace the batch is one program (no threads): jit gives the eager numbers,
+    and the gradient of a batch's total error is finite."""
+    targets = np.stack([blob(80, seed=s) for s in range(6)])
+    batch = lambda T, tol=None: fitting.fit_batch(T, js.CubicBSpline(), 8, tol=tol).rms
+    np.testing.assert_allclose(jax.jit(batch)(targets), batch(targets), rtol=1e-12)
+    gradient = jax.grad(lambda T: batch(T, 1e-10).sum())(jnp.asarray(targets))
+    assert gradient.shape == targets.shape and bool(jnp.all(jnp.isfinite(gradient)))
+
+
 def test_sharded_batch_equals_unsharded():
     # Two host devices need XLA_FLAGS before JAX starts: run in a fresh interpreter.
     code = textwrap.dedent(
