@@ -544,9 +544,10 @@ def _batched(targets, weights, scheme, smoothing, **static):
 
     The vmapped solver loop makes the devices step together (its stopping test is
     reduced over the device axis), so a device waits for the other's slower item at
-    every `lax.map` iteration, and its `lax.cond`s run both branches. `jax.shard_map` would give each device its own loop, but
-    lineax's structure check rejects the manual-axis shardings it introduces (measured
-    with lineax's Cholesky in the initialisation); to revisit.
+    every `lax.map` iteration, and its `lax.cond`s run both branches. `jax.shard_map`
+    would give each device its own loop, but lineax's structure check rejects the
+    manual-axis shardings it introduces (measured with lineax's Cholesky in the
+    initialisation); to revisit.
     """
     count = targets.shape[0]
     shares = static.pop("shares", 1)  # concurrent calls of this program (progress only)
