@@ -23,7 +23,7 @@ It stops (successfully) when two accepted steps in a row each lower the loss by 
 `rtol * loss + atol` (one such step may be a heavily damped one far from a minimum), or
 when the loss is below `atol`; it reports
 `nonlinear_divergence` when no step can lower the loss although the gradient does not
-vanish and the last accepted step was not such a small one. Step 0 only evaluates the model at
+vanish. Step 0 only evaluates the model at
 the starting point (so `num_steps` counts it).
 """
 
@@ -149,11 +149,8 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         done = (small & state.small) | (accept & (loss <= self.atol))
         # The damping cannot grow without bound: past 1e16 of the matrix's scale the steps
         # vanish in rounding and no step lowers the loss. That is a minimum to working
-        # precision if the gradient vanishes too, or if the last accepted step already
-        # lowered the loss by less than rtol (at a kink of the loss, where feet switch
-        # between branches of the curve, the gradient need not vanish); otherwise the
-        # model and the loss disagree (e.g. from a start far outside the data) and the
-        # fit has failed.
+        # precision only if the gradient vanishes too; otherwise the model and the loss
+        # disagree (e.g. from a start far outside the data) and the fit has failed.
         stuck = ~accept & (damping > 1e16)
         flat_gradient = jnp.max(jnp.abs(g)) <= 1e-6 * jnp.maximum(1.0, jnp.sqrt(state.loss))
         if callable(self.verbose):
@@ -171,7 +168,7 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
             small=jnp.where(accept, small, state.small),
             terminate=done | stuck,
             result=optx.RESULTS.where(
-                stuck & ~flat_gradient & ~state.small, optx.RESULTS.nonlinear_divergence,
+                stuck & ~flat_gradient, optx.RESULTS.nonlinear_divergence,
                 optx.RESULTS.successful,
             ),
         )
