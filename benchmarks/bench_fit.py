@@ -254,6 +254,7 @@ def run_single(shapes, ns, repeats, scipy_repeats):
             row.update(
                 fit_seconds=warm, fit_seconds_all=times, num_steps=int(result.num_steps),
                 converged=bool(result.converged), reported_rms=float(result.rms),
+                newton_step=float(result.newton_step),
             )
             row["fit_rms"], row["fit_max"] = errors(our_dense_curve(result.control_points), samples)
 
@@ -320,6 +321,9 @@ def run_batch(targets, n, sizes, loop_count, save):
             max_num_steps=int(np.max(np.asarray(result.num_steps))),
             median_num_steps=float(np.median(np.asarray(result.num_steps))),
             median_rms=float(np.median(np.asarray(result.rms))),
+            # Items whose returned point is a strict minimum of the smooth model (finite
+            # Newton step; see FitResult.newton_step).
+            strict_minima=int(np.sum(np.isfinite(np.asarray(result.newton_step)))),
         )
         # The batch solves each item exactly as a single fit would: check on the subset.
         entry["max_control_difference_vs_loop"] = max(
@@ -349,13 +353,15 @@ def markdown(data):
         "`fit` call for that n (tracing, compilation and one fit; later outlines with the "
         "same n reuse it). Errors: independent two-sided RMS and max of each method's "
         "dense curve against the samples, in units of the outline (glyphs are ~0.7 tall, "
-        "the superellipse 4 x 2).",
+        "the superellipse 4 x 2). `Newton step`: `FitResult.newton_step`, the estimated "
+        "distance of the control points from the optimum (inf: the Hessian is not "
+        "positive definite there).",
         "",
         "| shape | n | fit first (s) | fit warm (s) | steps | ms/step | conv. | fit RMS | fit max "
         "| foot-point (s) | foot-point RMS | foot-point max | splprep RMS | splprep max "
-        "| speed-up | RMS / foot-point |",
+        "| speed-up | RMS / foot-point | Newton step |",
         "| --- | ---: | ---: | ---: | ---: | ---: | :---: | ---: | ---: | ---: | ---: | ---: "
-        "| ---: | ---: | ---: | ---: |",
+        "| ---: | ---: | ---: | ---: | ---: |",
     ]
     for r in data["single"]:
         first = f"{r['first_call_seconds']:.2f}" if "first_call_seconds" in r else ""
@@ -365,7 +371,8 @@ def markdown(data):
             f"| {'yes' if r['converged'] else 'no'} | {r['fit_rms']:.3g} | {r['fit_max']:.3g} "
             f"| {r['footpoint_seconds']:.3f} | {r['footpoint_rms']:.3g} "
             f"| {r['footpoint_max']:.3g} | {r['splprep_rms']:.3g} | {r['splprep_max']:.3g} "
-            f"| {r['speedup_vs_footpoint']:.1f}x | {r['rms_ratio_vs_footpoint']:.3f} |"
+            f"| {r['speedup_vs_footpoint']:.1f}x | {r['rms_ratio_vs_footpoint']:.3f} "
+            f"| {r.get('newton_step', float('nan')):.1e} |"
         )
     b = data["batch"]
     loop = b["loop"]
@@ -387,8 +394,9 @@ def markdown(data):
         "difference between the batch's control points and the loop's on the shared items.",
         "",
         "| items | fit_batch first (s) | fit_batch warm (s) | fits/s | loop (scaled, s) "
-        "| loop fits/s | speed-up | converged | steps (median / max) | same as loop |",
-        "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+        "| loop fits/s | speed-up | converged | strict minima | steps (median / max) "
+        "| same as loop |",
+        "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     for e in b["sizes"]:
         warm = f"{e['seconds']:.2f}" + (" (est.)" if e["warm_estimated"] else "")
@@ -396,7 +404,8 @@ def markdown(data):
             f"| {e['items']} | {e['first_call_seconds']:.1f} | {warm} "
             f"| {e['fits_per_second']:.1f} | {e['loop_seconds_scaled']:.1f} "
             f"| {loop['fits_per_second']:.2f} | {e['speedup_vs_loop']:.1f}x "
-            f"| {e['converged']}/{e['items']} | {e['median_num_steps']:.0f} / {e['max_num_steps']} "
+            f"| {e['converged']}/{e['items']} | {e.get('strict_minima', '')} "
+            f"| {e['median_num_steps']:.0f} / {e['max_num_steps']} "
             f"| {e['max_control_difference_vs_loop']:.1e} |"
         )
     lines += ["", "## Targets", ""] + [f"- {t}" for t in data["targets"]]

@@ -192,6 +192,22 @@ def test_non_convergence_is_reported_and_last_iterate_returned():
         fitting.fit(samples, js.CubicBSpline(), 16, on_failure="ignore", **kw)
 
 
+def test_newton_step_estimates_the_distance_to_the_optimum():
+    samples = glyph_outline("a")
+    size = np.ptp(samples, axis=0).max()
+    optimum = fitting.fit(samples, js.CubicBSpline(), 16, tol=1e-13, max_steps=3000,
+                          on_failure="ignore").control_points
+    for tol in (1e-5, 1e-7):
+        result = fitting.fit(samples, js.CubicBSpline(), 16, tol=tol)
+        remaining = np.abs(np.asarray(result.control_points - optimum)).max()
+        assert remaining > 1e-7 * size  # above the rounding floor of the estimate
+        assert remaining / 3 < float(result.newton_step) < 3 * remaining
+    # A loose tol stopped this fit where the loss still curves down along some
+    # direction (the Hessian had a negative eigenvalue, measured): not a minimum.
+    loose = fitting.fit(glyph_outline("S"), js.CubicBSpline(), 32, tol=1e-5)
+    assert bool(loose.converged) and float(loose.newton_step) == np.inf
+
+
 # --------------------------------------------------------------------------------------
 # Batches
 
@@ -205,7 +221,7 @@ def test_batch_equals_loop_and_nan_item_fails_alone():
     assert list(np.asarray(batch.converged)) == [True, True, False, True]
     assert batch.message[2].startswith("nonfinite_input")
     assert np.all(np.isnan(np.asarray(batch.control_points[2])))
-    assert np.isnan(float(batch.rms[2]))
+    assert np.isnan(float(batch.rms[2])) and np.isnan(float(batch.newton_step[2]))
     for i in (0, 1, 3):
         single = fitting.fit(targets[i], js.CubicBSpline(), 10, max_steps=400)
         np.testing.assert_allclose(batch.control_points[i], single.control_points, atol=1e-8)

@@ -476,6 +476,7 @@ def test_result_json_from_a_fit_result(tmp_path):
         max_curve_to_target=value(0.03),
         num_steps=np.asarray(12),
         status=np.asarray(0),
+        newton_step=value(1e-9),
         boundary="closed",
         levels=4,
     )
