@@ -9,6 +9,7 @@ chords, whose distance to the curve is about h^2 kappa / 8 for spacing h and cur
 kappa.
 """
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
@@ -225,6 +226,88 @@ def curve_basis(
     if not tangents:
         return position, None
     return position, limit_tangents(refined, scheme, boundary=boundary)
+
+
+class Band(eqx.Module):
+    """A curve basis stored by segments, for the banded assembly (`band_basis`).
+
+    Segment `k` joins curve samples `k` and `k + 1`; every control point it depends on
+    lies in the window of `width` consecutive ones starting at `start[k]` (cyclically
+    on closed curves). `ends[k]` holds the rows of the sample, its tangent, the next
+    sample and its tangent, restricted to that window (zeros for tangents on chords).
+    """
+
+    start: Int[Array, " N"]
+    ends: Float[Array, "N 4 width"]
+
+
+def band_basis(
+    A: Float[Array, "N n"], V: Float[Array, "N n"] | None, width: int, closed: bool
+) -> Band:
+    """The basis `A` (and tangents `V`) by segments in windows of `width` control points.
+
+    A uniform binary scheme with a mask of `width` coefficients has a basic limit function
+    supported on `width - 1` intervals, so a limit point or tangent depends on at most
+    `width - 1` consecutive control points and a segment between two samples on `width`.
+    Each segment's window is the one holding the most of its rows' weight (all of it;
+    checked: a row reaching outside its window stops the fit with an error, as that
+    would be a defect of this function, never of the data).
+    """
+    N, n = A.shape
+    V = jnp.zeros_like(A) if V is None else V
+    nxt = (jnp.arange(N) + 1) % N if closed else jnp.minimum(jnp.arange(N) + 1, N - 1)
+    weight = jnp.abs(A) + jnp.abs(V)
+    weight = weight + weight[nxt]
+    starts = n if closed else n - width + 1
+    columns = jnp.arange(starts)[:, None] + jnp.arange(width)[None, :]
+    columns = columns % n if closed else columns
+    held = jnp.sum(weight[:, columns], -1)  # (N, starts): each window's share
+    start = jnp.argmax(held, axis=1)
+    outside = jnp.sum(weight, 1) - held[jnp.arange(N), start]
+    window = start[:, None] + jnp.arange(width)[None, :]
+    window = window % n if closed else window
+    rows = lambda M: jnp.take_along_axis(M, window, axis=1)
+    ends = jnp.stack([rows(A), rows(V), rows(A[nxt]), rows(V[nxt])], axis=1)
+    ends = eqx.error_if(
+        ends, jnp.max(outside) > 1e-9 * jnp.max(weight),
+        "fitting: a curve-basis row reaches beyond its scheme's mask length (a defect of "
+        "the banded assembly; please report it with the scheme and n_control).",
+    )
+    return Band(start=start, ends=ends)
+
+
+def band_rows(
+    band: Band, tau: Float[Array, " m"], n: int, closed: bool, hermite: bool
+) -> tuple[Int[Array, "m width"], Float[Array, "m width"], Float[Array, "m width"],
+           Float[Array, "m width"]]:
+    """`evaluate(A, V, tau, closed, order=2)` in banded form: each position's window of
+    control points `(m, width)` and its rows of the curve, tangent and second derivative
+    on that window."""
+    N = band.start.shape[0]
+    segment, u = _segment(tau, N, closed)
+    if hermite:
+        values, slopes, bends = _hermite(u)
+    else:  # chords: (1 - u) X_k + u X_{k+1}
+        zero, one = jnp.zeros_like(u), jnp.ones_like(u)
+        values = jnp.stack([1 - u, zero, u, zero])
+        slopes = jnp.stack([-one, zero, one, zero])
+        bends = jnp.zeros_like(values)
+    ends = band.ends[segment]  # (m, 4, width)
+    combine = lambda h: jnp.einsum("hm,mhw->mw", h, ends)
+    width = ends.shape[-1]
+    window = band.start[segment][:, None] + jnp.arange(width)[None, :]
+    window = window % n if closed else window
+    return window, combine(values), combine(slopes), combine(bends)
+
+
+def curve_samples(scheme, n: int, levels: int, boundary: str) -> int:
+    """Number of exact curve samples (rows of `curve_basis`): the refined count, less the
+    points an open curve's limit stencils cannot reach at its ends (see
+    [`jaxsubdiv.limit_points`][])."""
+    shape = jax.eval_shape(
+        lambda s: curve_basis(s, n, levels, boundary, jnp.float32, False)[0], scheme
+    )
+    return shape.shape[0]
 
 
 def _hermite(u):

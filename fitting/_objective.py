@@ -28,6 +28,8 @@ import numpy as np
 from jax.flatten_util import ravel_pytree
 
 from ._curve import (
+    band_basis,
+    band_rows,
     chord_band,
     curve_basis,
     evaluate,
@@ -56,6 +58,8 @@ class Objective(eqx.Module):
     smooth_rows: bool = eqx.field(static=True)
     num_curve: int = eqx.field(static=True)  # curve samples N
     num_target: int = eqx.field(static=True)  # target samples m (including padding)
+    # Window of the banded Hessian assembly (the scheme's mask length), or 0: dense.
+    band: int = eqx.field(static=True, default=0)
 
     @property
     def closed(self) -> bool:
@@ -72,11 +76,14 @@ class Objective(eqx.Module):
         return index
 
     def basis_of(self, scheme, dtype):
-        """The curve's basis matrices (samples, tangents or None) for `scheme`."""
-        return curve_basis(scheme, self.n, self.levels, self.boundary, dtype, self.hermite)
+        """The curve's basis matrices (samples, tangents or None) for `scheme`, and the
+        same by segments (`_curve.Band`) for the banded assembly (or None)."""
+        A, V = curve_basis(scheme, self.n, self.levels, self.boundary, dtype, self.hermite)
+        band = band_basis(A, V, self.band, self.closed) if self.band else None
+        return A, V, band
 
     def basis(self, y, args):
-        """The scheme at `y`'s parameters and its basis matrices (samples, tangents)."""
+        """The scheme at `y`'s parameters and its basis (`basis_of`)."""
         target, _, base, _, fixed = args
         if fixed is not None:
             return base, *fixed
@@ -90,7 +97,7 @@ class Objective(eqx.Module):
         With the `previous` feet (e.g. the last solver step's), each foot is searched near
         its previous position first (`_curve.track`), globally only where that fails."""
         target, weights = args[:2]
-        _, A, V = self.basis(y, args)
+        _, A, V, _ = self.basis(y, args)
         P = y["control"]
         X = A @ P
         tau = locate(target, X, None if V is None else V @ P, self.closed,
@@ -133,7 +140,7 @@ class Objective(eqx.Module):
         """
         target, weights, _, smoothing, _ = args
         tau, segment, fraction = feet
-        _, A, V = self.basis(y, args)
+        _, A, V, _ = self.basis(y, args)
         P = y["control"]
         X = A @ P
         VX = None if V is None else V @ P
@@ -201,17 +208,31 @@ class Objective(eqx.Module):
             feet = self.feet(y, args)
         target, weights, _, smoothing, _ = args
         tau, segment, fraction = feet
-        _, A, V = self.basis(y, args)
+        _, A, V, banded = self.basis(y, args)
         P = y["control"]
         m, d = target.shape
         n, dtype = self.n, target.dtype
         eye = jnp.eye(d, dtype=dtype)
         valid_count = jnp.sum(weights > 0).astype(dtype)
         w = weights * (valid_count / jnp.sum(weights))
+        # Each row of the curve's basis at a foot point: dense (m, n), or banded: the
+        # (m, width) entries on a window of consecutive control points (`window`).
+        if banded is None:
+            rows, slope_rows, bend_rows = evaluate(A, V, tau, self.closed, order=2)
+            held_rows = A[self.held]
+            at = lambda rows: rows @ P
+            held_at = at
+        else:
+            window, rows, slope_rows, bend_rows = band_rows(banded, tau, n, self.closed,
+                                                            self.hermite)
+            held_tau = jnp.asarray(self.held, dtype)
+            held_window, held_rows, _, _ = band_rows(banded, held_tau, n, self.closed,
+                                                     self.hermite)
+            at = lambda rows: jnp.einsum("mw,mwd->md", rows, P[window])
+            held_at = lambda rows: jnp.einsum("kw,kwd->kd", rows, P[held_window])
         # Target to curve.
-        rows, slope_rows, bend_rows = evaluate(A, V, tau, self.closed, order=2)
-        gap = rows @ P - target
-        slope, bend = slope_rows @ P, bend_rows @ P
+        gap = at(rows) - target
+        slope, bend = at(slope_rows), at(bend_rows)
         line, speed2 = self._line(tau, slope)
         kappa = jnp.maximum(speed2 + jnp.sum(gap * bend, -1), 0.5 * speed2)
         inverse = jnp.where(line, w / jnp.where(line, kappa, 1.0), 0.0)
@@ -221,11 +242,8 @@ class Objective(eqx.Module):
         loss = w @ jnp.sum(gap**2, -1)
         # u_i over (control j, coordinate c): b_ij C'_c + b'_ij r_c.
         U = (rows[:, :, None] * slope[:, None, :] + slope_rows[:, :, None] * gap[:, None, :])
-        U = U.reshape(m, n * d)
-        gradient = (rows.T @ (w[:, None] * gap)).reshape(-1)
-        hessian = jnp.kron(rows.T @ (w[:, None] * rows), eye) - U.T @ (inverse[:, None] * U)
+        U = U.reshape(m, -1)
         # Curve to target: linear in P (the target's segments are fixed).
-        held = A[self.held]
         nxt = (segment + 1) % m if self.closed else jnp.minimum(segment + 1, m - 1)
         direction = target[nxt] - target[segment]
         length2 = jnp.sum(direction**2, -1)
@@ -233,8 +251,8 @@ class Objective(eqx.Module):
         unit = direction / jnp.sqrt(jnp.where(inside, length2, 1.0))[:, None]
         normal = jnp.where(inside[:, None, None], eye - unit[:, :, None] * unit[:, None, :], eye)
         foot = target[segment] + fraction[:, None] * direction
-        weight = BACK_WEIGHT * valid_count / held.shape[0]
-        back = jnp.einsum("kac,kc->ka", normal, held @ P - foot)
+        weight = BACK_WEIGHT * valid_count / held_rows.shape[0]
+        back = jnp.einsum("kac,kc->ka", normal, held_at(held_rows) - foot)
         # Only the part beyond the chord's sagitta band counts (see `_band`): a scalar
         # residual `excess` along the unit direction of `back`.
         band = self._band(target, segment)
@@ -244,11 +262,37 @@ class Objective(eqx.Module):
         excess = jnp.where(active, length - band, 0.0)
         direction = back / length[:, None]
         loss += weight * jnp.sum(excess**2)
-        gradient += weight * (held.T @ (excess[:, None] * direction)).reshape(-1)
-        # sum_k held_kj held_kl direction_ka direction_kc as one matrix product
-        spread = (held[:, :, None] * jnp.where(active[:, None], direction, 0.0)[:, None, :])
-        spread = spread.reshape(-1, n * d)
-        hessian += weight * (spread.T @ spread)
+        # held_kj direction_ka over (control j, coordinate a), for the Hessian's
+        # sum_k held_kj held_kl direction_ka direction_kc
+        spread = (held_rows[:, :, None] * jnp.where(active[:, None], direction, 0.0)[:, None, :])
+        spread = spread.reshape(held_rows.shape[0], -1)
+        if banded is None:
+            gradient = (rows.T @ (w[:, None] * gap)).reshape(-1)
+            gradient += weight * (held_rows.T @ (excess[:, None] * direction)).reshape(-1)
+            hessian = jnp.kron(rows.T @ (w[:, None] * rows), eye) - U.T @ (inverse[:, None] * U)
+            hessian += weight * (spread.T @ spread)
+        else:
+            # Each sample's (and held point's) contribution on its window, summed per
+            # window start, then added into the dense matrix: O(m width^2) instead of
+            # O(m n^2) (measured at n = 64: 0.36 ms against 1.03 ms).
+            width = rows.shape[1]
+            square_rows = (w[:, None, None] * rows[:, :, None] * rows[:, None, :])
+            local = (square_rows[:, :, None, :, None] * eye[None, None, :, None, :])
+            local = local.reshape(m, width * d, width * d)
+            local -= inverse[:, None, None] * U[:, :, None] * U[:, None, :]
+            held_local = weight * spread[:, :, None] * spread[:, None, :]
+            local_gradient = (rows[:, :, None] * (w[:, None] * gap)[:, None, :]).reshape(m, -1)
+            held_gradient = weight * (held_rows[:, :, None] * (excess[:, None] * direction)[:, None, :])
+            starts = jnp.concatenate([window[:, 0], held_window[:, 0]])
+            total = lambda x: jax.ops.segment_sum(x, starts, num_segments=n)
+            blocks = total(jnp.concatenate([local, held_local]))
+            block_gradients = total(jnp.concatenate([local_gradient, held_gradient.reshape(-1, width * d)]))
+            # Flat indices of window s: control points s..s+width-1 (cyclically), each
+            # with its d coordinates.
+            index = (np.arange(n)[:, None] + np.arange(width)[None, :]) % n
+            index = (index[:, :, None] * d + np.arange(d)).reshape(n, width * d)
+            hessian = jnp.zeros((n * d, n * d), dtype).at[index[:, :, None], index[:, None, :]].add(blocks)
+            gradient = jnp.zeros((n * d,), dtype).at[index].add(block_gradients)
         if self.smooth_rows:
             D = second_differences(n, self.closed, dtype)
             loss += (smoothing / n) * jnp.sum((D @ P) ** 2)

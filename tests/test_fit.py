@@ -22,6 +22,7 @@ from helpers import (
 
 import fitting
 import jaxsubdiv as js
+from fitting import _curve
 
 
 def blob(m, seed=0, closed=True):
@@ -126,6 +127,21 @@ def test_open_curves(boundary):
     np.testing.assert_allclose(float(result.rms_target_to_curve), np.sqrt(np.mean(t2c**2)), rtol=1e-3)
     if boundary == "clamped":
         np.testing.assert_allclose(result.curve[0], result.control_points[0], atol=1e-12)
+
+
+@pytest.mark.parametrize("scheme", [js.CubicBSpline(), js.Chaikin(), js.FourPoint(1 / 16)],
+                         ids=["bspline", "chaikin", "four_point"])
+def test_open_curve_ends_at_the_end_samples(scheme):
+    # A straight line is exactly representable: the open curve must run from the first
+    # sample to the last (an off-by-the-stencil sample count once put its end 8e-4 of the
+    # size past the last sample).
+    t = np.linspace(0, 1, 80)
+    line = np.stack([t, 2 * t], -1)
+    result = fitting.fit(line, scheme, 12, boundary="open")
+    size = np.linalg.norm(np.ptp(line, axis=0))
+    np.testing.assert_allclose(result.curve[0], line[0], atol=1e-7 * size)
+    np.testing.assert_allclose(result.curve[-1], line[-1], atol=1e-7 * size)
+    assert float(result.max_error) < 1e-7 * size
 
 
 def test_order_samples_recovers_the_order():
@@ -319,7 +335,6 @@ def _executions(monkeypatch, module, name):
 def test_distances_equal_brute_force(monkeypatch, closed, spread, fallback):
     """`distances` certifies its fast answer, else checks every segment; either way it
     equals the brute-force distance."""
-    from fitting import _curve
 
     polyline = glyph_outline("S", 400) if closed else glyph_outline("S", 400)[:250]
     rng = np.random.default_rng(5)
@@ -339,7 +354,6 @@ def test_feet_tracked_from_the_last_step_are_the_nearest_points(monkeypatch, ang
     """Feet found from the previous curve's feet are the nearest points of the new curve
     (brute force on a 64x finer polyline of it), after a small move and after a large one
     that makes the search start over."""
-    from fitting import _curve
 
     samples = jnp.asarray(blob(300, seed=4))
     n, levels, scheme = 12, 6, js.CubicBSpline()
@@ -363,13 +377,13 @@ def test_feet_tracked_from_the_last_step_are_the_nearest_points(monkeypatch, ang
 # Gradients through the fit (implicit differentiation) against finite differences
 
 
-def _small_problem():
+def _small_problem(m=60):
     # A curve the model can represent, plus a little noise: the distance to the fitted
     # curve is then small, so the chord model's kinks (which scale with it) are
     # negligible and the optimum is a smooth function of the data.
     rng = np.random.default_rng(9)
     control = TRUE_CONTROL + 0.05 * rng.standard_normal(TRUE_CONTROL.shape)
-    samples = resample_closed(exact_curve(control, js.FourPoint(0.08), 9), 60, offset=0.37)
+    samples = resample_closed(exact_curve(control, js.FourPoint(0.08), 9), m, offset=0.37)
     samples = samples + 1e-4 * rng.standard_normal(samples.shape)
     direction = jnp.asarray(rng.standard_normal((8, 2)))
     return jnp.asarray(samples), direction
@@ -427,34 +441,85 @@ def test_gradient_with_respect_to_scheme_parameters():
     assert_matches_finite_difference(float(np.sum(grad * e)), fitted_w, samples, e)
 
 
-def test_model_matches_finite_differences_of_its_loss():
+@pytest.mark.parametrize("n, boundary", [(8, "closed"), (24, "closed")])
+@pytest.mark.parametrize("scheme, hermite", [(js.CubicBSpline(), True), (js.Chaikin(), False)],
+                         ids=["hermite", "chords"])
+def test_model_matches_finite_differences_of_its_loss(scheme, hermite, n, boundary):
     """The solver's closed-form gradient and (reduced) Hessian against central finite
-    differences of the loss with the feet found afresh at every point."""
-    from fitting._fit import default_levels
+    differences of the loss with the feet found afresh at every point: assembled densely
+    (n = 8) and by windows (n = 24, `_curve.band_basis`), on the Hermite curve (cubic
+    B-spline) and on chords (Chaikin)."""
+    from fitting._fit import _band_width, default_levels
     from fitting._objective import Objective
 
-    samples, direction = _small_problem()
+    samples, _ = _small_problem(60 if n == 8 else 120)
     samples = (samples - samples.mean(0)) / 1.3
-    for scheme, hermite in ((js.CubicBSpline(), True), (js.Chaikin(), False)):
-        levels = default_levels(8, 60, hermite)
-        N = js.refined_count(8, scheme, levels, "closed")
-        objective = Objective(n=8, levels=levels, boundary="closed", names=(), hermite=hermite,
-                              smooth_rows=True, num_curve=N, num_target=60)
-        weights = jnp.asarray(np.random.default_rng(3).uniform(0.5, 1.5, 60))
-        basis = objective.basis_of(scheme, samples.dtype)
-        args = (samples, weights, scheme, jnp.asarray(0.01), basis)
-        fit = fitting.fit(samples, scheme, 8, levels=levels, weights=weights, smoothing=0.01)
-        # Near (not at) the optimum, where the model must hold.
-        P = (fit.control_points - samples.mean(0)) + 0.01 * direction
-        model = jax.jit(lambda P: objective.quadratic_model({"control": P, "params": {}}, args))
-        loss = lambda P: float(model(P)[0])
-        _, gradient, hessian = model(P)
-        v = np.asarray(direction).reshape(-1)
-        h = 1e-5
-        slope = (loss(P + h * direction) - loss(P - h * direction)) / (2 * h)
-        curvature = (loss(P + h * direction) - 2 * loss(P) + loss(P - h * direction)) / h**2
-        np.testing.assert_allclose(2 * float(gradient @ v), slope, rtol=1e-4)
-        np.testing.assert_allclose(2 * float(v @ hessian @ v), curvature, rtol=2e-2)
+    m = samples.shape[0]
+    levels = default_levels(n, m, hermite)
+    N = _curve.curve_samples(scheme, n, levels, boundary)
+    band = _band_width(scheme, n)
+    assert (band > 0) == (n == 24)
+    objective = Objective(n=n, levels=levels, boundary=boundary, names=(), hermite=hermite,
+                          smooth_rows=True, num_curve=N, num_target=m, band=band)
+    weights = jnp.asarray(np.random.default_rng(3).uniform(0.5, 1.5, m))
+    basis = objective.basis_of(scheme, samples.dtype)
+    args = (samples, weights, scheme, jnp.asarray(0.01), basis)
+    fit = fitting.fit(samples, scheme, n, levels=levels, weights=weights, smoothing=0.01,
+                      boundary=boundary)
+    # Near (not at) the optimum, where the model must hold.
+    direction = jnp.asarray(np.random.default_rng(n).standard_normal((n, 2)))
+    P = (fit.control_points - samples.mean(0)) + 0.01 * direction
+    model = jax.jit(lambda P: objective.quadratic_model({"control": P, "params": {}}, args))
+    loss = lambda P: float(model(P)[0])
+    _, gradient, hessian = model(P)
+    v = np.asarray(direction).reshape(-1)
+    h = 1e-5
+    slope = (loss(P + h * direction) - loss(P - h * direction)) / (2 * h)
+    curvature = (loss(P + h * direction) - 2 * loss(P) + loss(P - h * direction)) / h**2
+    np.testing.assert_allclose(2 * float(gradient @ v), slope, rtol=1e-4)
+    np.testing.assert_allclose(2 * float(v @ hessian @ v), curvature, rtol=2e-2)
+
+
+@pytest.mark.parametrize("boundary", ["closed", "open", "clamped"])
+@pytest.mark.parametrize(
+    "scheme", [js.CubicBSpline(), js.Chaikin(), js.FourPoint(0.07), js.LaneRiesenfeld(4)],
+    ids=["bspline", "chaikin", "four_point", "lane_riesenfeld_4"],
+)
+def test_banded_model_equals_dense(scheme, boundary):
+    """The banded assembly (`_curve.band_basis`) is a reordering of the dense sums: the
+    same loss, gradient and Hessian to rounding, for every boundary (open curves lose
+    end samples; clamped ends reflect ghost points)."""
+    from fitting._fit import _uses_tangents, default_levels
+    from fitting._objective import Objective
+
+    if boundary == "clamped" and scheme.clamp_ghost is None:
+        pytest.skip("no clamped rule")
+    n = 32
+    samples, _ = _small_problem(120)
+    samples = (samples - samples.mean(0)) / 1.3
+    if boundary != "closed":
+        samples = samples[:90]
+    m = samples.shape[0]
+    hermite = _uses_tangents(scheme, (), boundary)
+    levels = default_levels(n, m, hermite)
+    N = _curve.curve_samples(scheme, n, levels, boundary)
+    P = jnp.asarray(np.random.default_rng(1).standard_normal((n, 2))) * 0.01
+    P = P + fitting.fit(samples, scheme, n, levels=levels, boundary=boundary,
+                        on_failure="ignore").control_points
+    weights = jnp.asarray(np.random.default_rng(3).uniform(0.5, 1.5, m))
+    models = []
+    for band in (0, scheme.mask_length):
+        objective = Objective(n=n, levels=levels, boundary=boundary, names=(),
+                              hermite=hermite, smooth_rows=False, num_curve=N, num_target=m,
+                              band=band)
+        args = (samples, weights, scheme, jnp.asarray(0.0), objective.basis_of(scheme, jnp.float64))
+        y = {"control": P, "params": {}}
+        models.append(objective.quadratic_model(y, args, objective.feet(y, args)))
+    (loss, gradient, hessian), (banded_loss, banded_gradient, banded_hessian) = models
+    scale = float(jnp.max(jnp.abs(hessian)))
+    np.testing.assert_allclose(banded_loss, loss, rtol=1e-12)
+    np.testing.assert_allclose(banded_gradient, gradient, atol=1e-12 * scale)
+    np.testing.assert_allclose(banded_hessian, hessian, atol=1e-12 * scale)
 
 
 def test_gradient_on_exact_data_is_finite():
