@@ -17,7 +17,7 @@ from jaxsubdiv._misc import as_float_array, is_traced, static_int
 from jaxsubdiv._refine import _min_points
 
 from . import _progress
-from ._curve import curve_samples, distances, evaluate, locate
+from ._curve import curve_samples, distances, evaluate, locate, safe_norm
 from ._init import initial_control, order_samples
 from ._objective import BACK_WEIGHT as BACK_WEIGHT, Objective
 from ._params import fitted_names, from_unconstrained, to_unconstrained
@@ -254,8 +254,10 @@ def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, n
             tau = sol.state.hint[0]
         else:
             tau = locate(T, X, V @ P, closed, coarse=max(1, min(8, N // 64)))
-        feet, _ = evaluate(X, V @ P, tau, closed)
-        t2c = jnp.sqrt(jnp.sum((feet - T) ** 2, -1))
+        # Differentiated with the feet held (the distance is stationary in them), and
+        # with a zero derivative for a sample exactly on the curve.
+        feet, _ = evaluate(X, V @ P, jax.lax.stop_gradient(tau), closed)
+        t2c = safe_norm(feet - T)
     else:
         t2c = distances(T, X, closed)
     t2c = jnp.where(valid, t2c * scale, 0.0)
