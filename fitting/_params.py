@@ -16,6 +16,7 @@ $\\sigma$ is the logistic function. Parameters at the edge of their range (e.g.
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 import jaxsubdiv as js
 
@@ -41,6 +42,13 @@ FITTABLE = {
 def fitted_names(scheme, fit_params) -> tuple[str, ...]:
     """Resolve `fit_params` (False, True or names) against the scheme's parameters."""
     available = FITTABLE.get(type(scheme), ())
+    if isinstance(fit_params, (bool, np.bool_)):
+        fit_params = bool(fit_params)
+    elif fit_params is not None and not isinstance(fit_params, (str, tuple, list)):
+        raise TypeError(
+            f"`fit_params` must be False, True, a parameter name or a tuple of names; got "
+            f"{fit_params!r}."
+        )
     if fit_params is False or fit_params is None:
         return ()
     if fit_params is True:

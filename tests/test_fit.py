@@ -235,7 +235,7 @@ def test_batch_equals_loop_and_nan_item_fails_alone():
         batch = fitting.fit_batch(targets, js.CubicBSpline(), 10, max_steps=400)
     assert batch.control_points.shape == (4, 10, 2)
     assert list(np.asarray(batch.converged)) == [True, True, False, True]
-    assert batch.message[2].startswith("nonfinite_input")
+    assert batch.message[2].startswith("nonfinite_input") and "NaN or infinite" in batch.message[2]
     assert np.all(np.isnan(np.asarray(batch.control_points[2])))
     assert np.isnan(float(batch.rms[2])) and np.isnan(float(batch.newton_step[2]))
     for i in (0, 1, 3):
@@ -612,6 +612,17 @@ def test_fit_under_filter_jit():
         (dict(solver="newton"), ValueError, "solver"),
         (dict(scheme="cubic"), TypeError, "scheme"),
         (dict(init=np.zeros((3, 2))), ValueError, "init"),
+        (dict(init=np.full((8, 2), np.nan)), ValueError, "init=...)` has non-finite"),
+        (dict(target=blob(100).astype(np.complex128)), TypeError, "real float32 or float64"),
+        (dict(target=blob(100).astype(np.float16)), TypeError, "real float32 or float64"),
+        (dict(weights=np.full(100, np.nan)), ValueError, "non-finite"),
+        (dict(smoothing=np.nan), ValueError, "smoothing"),
+        (dict(smoothing=np.ones(3)), ValueError, "scalar"),
+        (dict(tol=-1.0), ValueError, "finite and positive"),
+        (dict(tol=np.nan), ValueError, "finite and positive"),
+        (dict(tol="1e-6"), TypeError, "tol"),
+        (dict(fit_params=1), TypeError, "fit_params"),
+        (dict(scheme=js.FourPoint(0.2), fit_params=True), ValueError, "(0, 0.19"),
     ],
 )
 def test_bad_input_is_a_clear_error(change, error, words):
@@ -620,6 +631,22 @@ def test_bad_input_is_a_clear_error(change, error, words):
     with pytest.raises(error) as info:
         fitting.fit(args.pop("target"), args.pop("scheme"), args.pop("n_control"), **args)
     assert words in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        (dict(targets=[blob(100), np.zeros((100, 3)) + blob(100, seed=1)[:, :1]]), "dimensions"),
+        (dict(weights=1.0), "one weight array per target"),
+        (dict(devices=[]), "devices"),
+        (dict(tol=0.0), "tol"),
+    ],
+)
+def test_bad_batch_input_is_a_clear_error(change, words):
+    args = dict(targets=[blob(100), blob(100, seed=1)])
+    args.update(change)
+    with pytest.raises(ValueError, match=words):
+        fitting.fit_batch(args.pop("targets"), js.CubicBSpline(), 8, **args)
 
 
 def test_non_finite_target_is_a_clear_error():
