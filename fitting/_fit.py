@@ -730,7 +730,9 @@ def fit_batch(
     batch is instead split into `threads` shares fitted concurrently, one per core.
     One item that
     fails (non-finite samples, no convergence) does not spoil the others: see
-    `result.converged[i]` and `result.message[i]`.
+    `result.converged[i]` and `result.message[i]`. Items that are invalid as input (wrong
+    shape, all samples equal, an open-looking outline with `boundary="closed"`) raise a
+    `ValueError` naming the item before anything is fitted.
 
     **Arguments:**
 
