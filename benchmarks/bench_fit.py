@@ -3,6 +3,7 @@
     python benchmarks/bench_fit.py            # full run (about 30 minutes on 2 cores)
     python benchmarks/bench_fit.py --smoke    # one outline, n = 16, 2 batch items
     python benchmarks/bench_fit.py --output /some/dir/fit.json
+    python benchmarks/bench_fit.py --tol 1e-5 --no-batch --output benchmarks/results/fit_tol1e-5.json
 
 Single fits, on the outer contours of DejaVu Sans 'S' and 'a' and a superellipse (400
 samples each, from `tests/helpers.py`), closed cubic B-spline, n = 16, 32, 64 control
@@ -464,6 +465,8 @@ def main():
     parser.add_argument("--output", type=pathlib.Path, default=None, help="JSON path")
     parser.add_argument("--tol", type=float, default=None,
                         help="`tol` of every fit (default: the library's)")
+    parser.add_argument("--no-batch", action="store_true",
+                        help="single fits only (a few minutes instead of about 30)")
     args = parser.parse_args()
     output = args.output or RESULTS / ("fit_smoke.json" if args.smoke else "fit.json")
     output.parent.mkdir(parents=True, exist_ok=True)
@@ -497,6 +500,9 @@ def main():
     jax.block_until_ready(jax.numpy.ones(2) + 1)  # start the backend outside the timings
     data["single"] = run_single(shapes, ns, repeats, scipy_repeats)
     save(dict(n=batch_n, samples=400, max_steps=BATCH_STEPS, sizes=[], loop={}))
+    if args.no_batch:
+        print(output.with_suffix(".md").read_text())
+        return
     targets = perturbed_outlines(list(shapes.values()) if args.smoke else
                                  [glyph_outline("S"), glyph_outline("a"), superellipse()],
                                  max(size for size, _ in batch_sizes))

@@ -319,12 +319,12 @@ def band_rows(
 
 def curve_samples(scheme, n: int, levels: int, boundary: str) -> int:
     """Number of exact curve samples (rows of `curve_basis`): the refined count, less the
-    points an open curve's limit stencils cannot reach at its ends (see
+    `a` points at each end of an open curve that its limit stencils cannot reach (see
     [`jaxsubdiv.limit_points`][])."""
-    shape = jax.eval_shape(
-        lambda s: curve_basis(s, n, levels, boundary, jnp.float32, False)[0], scheme
-    )
-    return shape.shape[0]
+    count = js.refined_count(n, scheme, levels, boundary)
+    if boundary == "open":
+        count -= 2 * (len(js.neighborhood(scheme, "vertex")) // 2)
+    return count
 
 
 def _hermite(u):

@@ -239,6 +239,8 @@ def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, n
     # The curve's basis at the starting parameters: for the initial linear fit, for the
     # whole solve when no parameter is fitted, and for the final curve then.
     basis = objective.basis_of(scheme, dtype)
+    if basis[0].shape[0] != N:  # static shapes: a defect here, never the data's
+        raise AssertionError(f"curve_samples gave {N}, the basis has {basis[0].shape[0]} rows")
     if init is None:
         P0 = initial_control(T, weights, basis[0], boundary, smoothing)
     else:
