@@ -80,13 +80,13 @@ class FitResult(eqx.Module):
     - `newton_step`: how far the control points still are from the exact optimum, as
       the local model of the loss estimates it: the largest control-point coordinate
       of the Newton step $-H^{-1} g$ at the returned point (a step in all the unknowns,
-      scheme parameters included if fitted), in the target's units. `inf` where the loss's Hessian is
-      not positive definite there (the point is not a strict minimum of the smooth
-      model: e.g. a loose `tol` stopped on a saddle, or the optimum sits on a kink of
-      the loss at a sharp corner). Derivatives through the fit are exact at the optimum
-      only; compare this with the size of the changes you differentiate for. Measured:
-      within a factor 3 of the true remaining distance once the solver is near the
-      optimum, and about 1e-8 of the outline's size at full convergence (rounding).
+      scheme parameters included if fitted), in the target's units. `inf` where the
+      loss's Hessian is not positive definite there (the point is not a strict minimum
+      of the smooth model: e.g. a loose `tol` stopped on a saddle, or the optimum sits
+      on a kink of the loss at a sharp corner). Derivatives through the fit are exact
+      at the optimum only; compare this with the size of the changes you differentiate
+      for. Measured: within a factor 3 of the true remaining distance once the solver
+      is near the optimum, and about 1e-8 of the outline's size at full convergence.
     """
 
     control_points: Float[Array, "*batch n d"]
@@ -153,7 +153,8 @@ def _default_tol(dtype) -> float:
 
 def _check_tol(tol, caller: str) -> float:
     """`tol` as a Python float: a finite positive number (it sets static solver fields)."""
-    if isinstance(tol, (bool, np.bool_)) or not isinstance(tol, (int, float, np.integer, np.floating)):
+    number = isinstance(tol, (int, float, np.integer, np.floating))
+    if isinstance(tol, (bool, np.bool_)) or not number:
         raise TypeError(f"`{caller}(tol=...)` must be a number such as 1e-7; got {tol!r}.")
     if not (math.isfinite(tol) and tol > 0):
         raise ValueError(f"`{caller}(tol=...)` must be finite and positive; got {tol!r}.")
@@ -770,7 +771,9 @@ def fit_batch(
         raise ValueError("`fit_batch(targets=...)` is empty.")
     if weights is None:
         weights = [None] * len(items)
-    elif (not isinstance(weights, (list, tuple)) and np.ndim(weights) == 0) or len(weights) != len(items):
+    elif (
+        not isinstance(weights, (list, tuple)) and np.ndim(weights) == 0
+    ) or len(weights) != len(items):
         raise ValueError(
             f"`fit_batch(weights=...)` needs one weight array per target ({len(items)}): "
             "an array (B, m) or a list of (m_i,) arrays."
@@ -811,6 +814,8 @@ def fit_batch(
         smooth_rows=smooth_rows, hermite=_uses_tangents(scheme, names, boundary),
         progress=progress,
     )
+    if progress:
+        _progress.begin()
     result = _run_batch(
         stacked, stacked_weights, scheme, jnp.asarray(smoothing, stacked.dtype), static,
         devices,

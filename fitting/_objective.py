@@ -282,16 +282,18 @@ class Objective(eqx.Module):
             local -= inverse[:, None, None] * U[:, :, None] * U[:, None, :]
             held_local = weight * spread[:, :, None] * spread[:, None, :]
             local_gradient = (rows[:, :, None] * (w[:, None] * gap)[:, None, :]).reshape(m, -1)
-            held_gradient = weight * (held_rows[:, :, None] * (excess[:, None] * direction)[:, None, :])
+            held_gradient = held_rows[:, :, None] * (excess[:, None] * direction)[:, None, :]
+            held_gradient = weight * held_gradient.reshape(-1, width * d)
             starts = jnp.concatenate([window[:, 0], held_window[:, 0]])
             total = lambda x: jax.ops.segment_sum(x, starts, num_segments=n)
             blocks = total(jnp.concatenate([local, held_local]))
-            block_gradients = total(jnp.concatenate([local_gradient, held_gradient.reshape(-1, width * d)]))
+            block_gradients = total(jnp.concatenate([local_gradient, held_gradient]))
             # Flat indices of window s: control points s..s+width-1 (cyclically), each
             # with its d coordinates.
             index = (np.arange(n)[:, None] + np.arange(width)[None, :]) % n
             index = (index[:, :, None] * d + np.arange(d)).reshape(n, width * d)
-            hessian = jnp.zeros((n * d, n * d), dtype).at[index[:, :, None], index[:, None, :]].add(blocks)
+            hessian = jnp.zeros((n * d, n * d), dtype)
+            hessian = hessian.at[index[:, :, None], index[:, None, :]].add(blocks)
             gradient = jnp.zeros((n * d,), dtype).at[index].add(block_gradients)
         if self.smooth_rows:
             D = second_differences(n, self.closed, dtype)

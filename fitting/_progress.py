@@ -40,11 +40,15 @@ def progress_verbose(**kwargs):
     jax.debug.callback(_show, step, loss, ordered=True)
 
 
+def begin():
+    """Start the clock of a batch's progress line."""
+    _state["start"] = _state["last"] = time.perf_counter()
+
+
 def _show_items(done, total):
     now = time.perf_counter()
-    if int(done) <= 1:
-        _state["start"] = now
-    elif now - _state["last"] < 0.1 and int(done) < int(total):
+    # (The first report of a sharded batch already counts one outline per device.)
+    if now - _state["last"] < 0.1 and int(done) < int(total):
         return
     _state["last"] = now
     sys.stderr.write(

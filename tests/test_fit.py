@@ -1,6 +1,7 @@
 """`fitting.fit` and `fitting.fit_batch` against independent references."""
 
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -296,8 +297,10 @@ def test_sharded_batch_equals_unsharded():
                               tol=1e-10)
         c = fitting.fit_batch(targets, js.CubicBSpline(), 8, progress=True)  # one line
         assert np.all(np.asarray(c.converged))
-        print(float(np.abs(np.asarray(a.control_points) - np.asarray(b.control_points)).max()),
-              float(np.abs(np.asarray(a.rms) / np.asarray(b.rms) - 1).max()))
+        for i in range(3):
+            ca, cb = np.asarray(a.control_points[i]), np.asarray(b.control_points[i])
+            print(float(np.abs(ca - cb).max()), float(abs(float(a.rms[i]) / float(b.rms[i]) - 1)),
+                  max(float(a.newton_step[i]), float(b.newton_step[i])))
         """
     )
     env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2")
@@ -305,12 +308,21 @@ def test_sharded_batch_equals_unsharded():
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600
     )
     assert out.returncode == 0, out.stderr[-3000:]
-    control, rms = map(float, out.stdout.strip().splitlines()[-1].split())
-    # The optimum is flat along the control points' sliding along the curve: the two
-    # programs round differently and stop 7e-8 apart (measured, with the same step
-    # counts), which moves the curve-to-samples part of the RMS by 1e-7 of itself.
-    assert control < 1e-6 and rms < 1e-6, (control, rms)
-    assert "outlines" in out.stderr  # the batch's progress line, across two devices
+    # The two programs round differently (vmapped over the devices or not), so they stop
+    # at slightly different points; each within its own `newton_step` of the optimum.
+    # Where that is tiny they agree to 1e-6 (measured 7e-8); the third outline (three
+    # lobes, 8 control points: a nearly free sliding) stops 4e-3 from its optimum, and
+    # the two stopped 8e-5 apart, 3 steps apart, moving its RMS by 1e-4 of itself.
+    for line in out.stdout.strip().splitlines()[-3:]:
+        control, rms, newton = map(float, line.split())
+        if newton < 1e-6:
+            assert control < 1e-6 and rms < 1e-6, (control, rms, newton)
+        else:
+            assert control < 2 * newton and rms < 1e-3, (control, rms, newton)
+    # The batch's progress line, across two devices, with a sane clock (it once showed
+    # the seconds since the machine started: its first report counts two outlines).
+    seconds = [float(x) for x in re.findall(r"outlines\s+([0-9.]+) s", out.stderr)]
+    assert seconds and max(seconds) < 600, out.stderr
 
 
 # --------------------------------------------------------------------------------------
@@ -534,6 +546,7 @@ def test_banded_model_equals_dense(scheme, boundary):
     same loss, gradient and Hessian to rounding, for every boundary (open curves lose
     end samples; clamped ends reflect ghost points)."""
     from fitting._fit import _uses_tangents, default_levels
+    from fitting._init import initial_control
     from fitting._objective import Objective
 
     if boundary == "clamped" and scheme.clamp_ghost is None:
@@ -547,18 +560,21 @@ def test_banded_model_equals_dense(scheme, boundary):
     hermite = _uses_tangents(scheme, (), boundary)
     levels = default_levels(n, m, hermite)
     N = _curve.curve_samples(scheme, n, levels, boundary)
-    P = jnp.asarray(np.random.default_rng(1).standard_normal((n, 2))) * 0.01
-    P = P + fitting.fit(samples, scheme, n, levels=levels, boundary=boundary,
-                        on_failure="ignore").control_points
     weights = jnp.asarray(np.random.default_rng(3).uniform(0.5, 1.5, m))
+    # Near the data (the linear fit at chord-length positions), without compiling a fit.
+    A, _ = _curve.curve_basis(scheme, n, levels, boundary, jnp.float64, hermite)
+    P = initial_control(samples, weights, A, boundary, 0.0)
+    P = P + 0.01 * jnp.asarray(np.random.default_rng(1).standard_normal((n, 2)))
     models = []
     for band in (0, scheme.mask_length):
         objective = Objective(n=n, levels=levels, boundary=boundary, names=(),
                               hermite=hermite, smooth_rows=False, num_curve=N, num_target=m,
                               band=band)
         args = (samples, weights, scheme, jnp.asarray(0.0), objective.basis_of(scheme, jnp.float64))
-        y = {"control": P, "params": {}}
-        models.append(objective.quadratic_model(y, args, objective.feet(y, args)))
+        model = jax.jit(lambda P: objective.quadratic_model(
+            {"control": P, "params": {}}, args,
+            objective.feet({"control": P, "params": {}}, args)))
+        models.append(model(P))
     (loss, gradient, hessian), (banded_loss, banded_gradient, banded_hessian) = models
     scale = float(jnp.max(jnp.abs(hessian)))
     np.testing.assert_allclose(banded_loss, loss, rtol=1e-12)
