@@ -77,10 +77,18 @@ def project(
     the foot points as fixed, see `foot_residual`).
     """
     points, curve = jax.lax.stop_gradient((points, curve))
+    _, _, _, segment, fraction = _coarse_to_fine(points, curve, closed, coarse)
+    return segment, fraction
+
+
+def _coarse_to_fine(points, curve, closed, coarse):
+    """`project`'s search: (coarse, anchors, each point's nearest anchor, segment,
+    fraction)."""
     coarse, anchors = _anchors(curve, closed, coarse)
     nearest = jnp.argmin(_anchor_distance2(points, anchors), axis=1)
     offsets = jnp.arange(-coarse - 1, coarse + 1)
-    return _window_project(points, curve, closed, nearest[:, None] * coarse + offsets[None, :])
+    window = nearest[:, None] * coarse + offsets[None, :]
+    return (coarse, anchors, nearest, *_window_project(points, curve, closed, window))
 
 
 def track(
@@ -198,11 +206,8 @@ def distances(
     differentiable = (points, curve)
     points, curve = jax.lax.stop_gradient((points, curve))
     N = curve.shape[0]
-    coarse, anchors = _anchors(curve, closed, coarse)
+    coarse, anchors, nearest, segment, fraction = _coarse_to_fine(points, curve, closed, coarse)
     k = anchors.shape[0]
-    nearest = jnp.argmin(_anchor_distance2(points, anchors), axis=1)
-    offsets = jnp.arange(-coarse - 1, coarse + 1)
-    segment, fraction = _window_project(points, curve, closed, nearest[:, None] * coarse + offsets)
     a, b = _segment_ends(curve, closed)
     found = jnp.sqrt(jnp.sum((points - a[segment] - fraction[:, None] * (b[segment] - a[segment])) ** 2, -1))
     # Group g: segments g*coarse ... g*coarse + coarse - 1, inside the ball about the
@@ -302,13 +307,7 @@ def band_rows(
     on that window."""
     N = band.start.shape[0]
     segment, u = _segment(tau, N, closed)
-    if hermite:
-        values, slopes, bends = _hermite(u)
-    else:  # chords: (1 - u) X_k + u X_{k+1}
-        zero, one = jnp.zeros_like(u), jnp.ones_like(u)
-        values = jnp.stack([1 - u, zero, u, zero])
-        slopes = jnp.stack([-one, zero, one, zero])
-        bends = jnp.zeros_like(values)
+    values, slopes, bends = _interpolation(u, hermite)
     ends = band.ends[segment]  # (m, 4, width)
     combine = lambda h: jnp.einsum("hm,mhw->mw", h, ends)
     width = ends.shape[-1]
@@ -335,6 +334,17 @@ def _hermite(u):
     slopes = jnp.stack([6 * u2 - 6 * u, 3 * u2 - 4 * u + 1, 6 * u - 6 * u2, 3 * u2 - 2 * u])
     bends = jnp.stack([12 * u - 6, 6 * u - 4, 6 - 12 * u, 6 * u - 2])
     return values, slopes, bends
+
+
+def _interpolation(u, hermite: bool):
+    """Weights of (point, tangent, next point, next tangent) at `u` in [0, 1] for the
+    value, first and second derivative, each `(4, m)`: cubic Hermite, or the chord
+    (1 - u) X_k + u X_{k+1} (tangents unused)."""
+    if hermite:
+        return _hermite(u)
+    zero, one = jnp.zeros_like(u), jnp.ones_like(u)
+    values = jnp.stack([1 - u, zero, u, zero])
+    return values, jnp.stack([-one, zero, one, zero]), jnp.zeros_like(values)
 
 
 def _segment(tau, N: int, closed: bool):
@@ -366,14 +376,9 @@ def evaluate(
     seg, u = _segment(tau, N, closed)
     nxt = (seg + 1) % N if closed else seg + 1
     expand = lambda c: c.reshape(c.shape + (1,) * (X.ndim - 1))
-    if V is None:
-        point = expand(1 - u) * X[seg] + expand(u) * X[nxt]
-        out = (point, X[nxt] - X[seg], jnp.zeros_like(point))
-    else:
-        ends = (X[seg], V[seg], X[nxt], V[nxt])
-        combine = lambda basis: sum(expand(h) * e for h, e in zip(basis, ends))
-        out = tuple(combine(basis) for basis in _hermite(u))
-    return out[: order + 1]
+    ends = (X[seg], None, X[nxt], None) if V is None else (X[seg], V[seg], X[nxt], V[nxt])
+    combine = lambda basis: sum(expand(h) * e for h, e in zip(basis, ends) if e is not None)
+    return tuple(combine(basis) for basis in _interpolation(u, V is not None)[: order + 1])
 
 
 def _newton(points, X, V, tau, closed, steps, reach):
