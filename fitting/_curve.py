@@ -23,12 +23,33 @@ def _segment_ends(curve, closed):
     return (curve if closed else curve[:-1]), nxt
 
 
-def _window_project(points, curve, closed, window):
-    """Nearest point of each point's candidate segments `window` `(m, w)`: (segment,
-    fraction)."""
+def _closed_segments(index, N: int, count):
+    """The segments of a closed polyline of `N` vertices at outline positions `index`.
+
+    `count` (traced) says that only the first `count` vertices are the outline and the
+    rest copies of its last vertex (padding up to a shape bucket, see `fitting._fit`);
+    None means all `N`. Positions count segments along the outline, wrapping after
+    `count`: the closing chord is position `count - 1`, but the polyline's segment
+    `N - 1` (the padding's segments before it have length zero). So a search window
+    around the seam covers the closing chord and the outline's first segments, as it
+    does without padding."""
+    if count is None:
+        return index % N
+    index = index % count
+    return jnp.where(index == count - 1, N - 1, index)
+
+
+def _outline_position(segment, count):
+    """Inverse of `_closed_segments`: a segment's position along the outline (padding
+    segments, which lie at the last vertex, count as the closing chord)."""
+    return segment if count is None else jnp.minimum(segment, count - 1)
+
+
+def _window_project(points, curve, closed, window, count=None):
+    """Nearest point of each point's candidate segments `window` `(m, w)`, given as
+    positions along the outline (`_closed_segments`): (segment, fraction)."""
     N = curve.shape[0]
-    segments = N if closed else N - 1
-    window = window % segments if closed else jnp.clip(window, 0, segments - 1)
+    window = _closed_segments(window, N, count) if closed else jnp.clip(window, 0, N - 2)
     a, b = _segment_ends(curve, closed)
     A, B = a[window], b[window]  # (m, w, d)
     AB = B - A
@@ -66,7 +87,11 @@ def _lost(points, anchors, found2):
 
 
 def project(
-    points: Float[Array, "m d"], curve: Float[Array, "N d"], closed: bool, coarse: int
+    points: Float[Array, "m d"],
+    curve: Float[Array, "N d"],
+    closed: bool,
+    coarse: int,
+    count: Int[Array, ""] | None = None,
 ) -> tuple[Int[Array, " m"], Float[Array, " m"]]:
     """Nearest point of the polyline `curve` to each of `points`: (segment, fraction).
 
@@ -74,21 +99,23 @@ def project(
     onto the segments within `coarse` vertices of it either way. Exact for curves whose
     vertices are at most ~`coarse` segments away from the nearest coarse vertex, which
     holds for refined curves sampled densely enough. Not differentiated (the fit treats
-    the foot points as fixed, see `foot_residual`).
+    the foot points as fixed, see `foot_residual`). `count`: for a closed polyline padded
+    after its last vertex, the number of its own vertices (`_closed_segments`).
     """
     points, curve = jax.lax.stop_gradient((points, curve))
-    _, _, _, segment, fraction = _coarse_to_fine(points, curve, closed, coarse)
+    _, _, _, segment, fraction = _coarse_to_fine(points, curve, closed, coarse, count)
     return segment, fraction
 
 
-def _coarse_to_fine(points, curve, closed, coarse):
+def _coarse_to_fine(points, curve, closed, coarse, count=None):
     """`project`'s search: (coarse, anchors, each point's nearest anchor, segment,
     fraction)."""
     coarse, anchors = _anchors(curve, closed, coarse)
     nearest = jnp.argmin(_anchor_distance2(points, anchors), axis=1)
     offsets = jnp.arange(-coarse - 1, coarse + 1)
-    window = nearest[:, None] * coarse + offsets[None, :]
-    return (coarse, anchors, nearest, *_window_project(points, curve, closed, window))
+    start = _outline_position(nearest * coarse, count) if closed else nearest * coarse
+    window = start[:, None] + offsets[None, :]
+    return (coarse, anchors, nearest, *_window_project(points, curve, closed, window, count))
 
 
 def track(
@@ -98,6 +125,7 @@ def track(
     coarse: int,
     segment: Int[Array, " m"],
     radius: int = 2,
+    count: Int[Array, ""] | None = None,
 ) -> tuple[Int[Array, " m"], Float[Array, " m"]]:
     """`project`, starting from each point's previous foot segment `segment`.
 
@@ -110,13 +138,15 @@ def track(
     """
     points, curve = jax.lax.stop_gradient((points, curve))
     offsets = jnp.arange(-radius, radius + 1)
-    near, fraction = _window_project(points, curve, closed, segment[:, None] + offsets[None, :])
+    start = _outline_position(segment, count) if closed else segment
+    near, fraction = _window_project(points, curve, closed, start[:, None] + offsets[None, :],
+                                     count)
     a, b = _segment_ends(curve, closed)
     foot = a[near] + fraction[:, None] * (b[near] - a[near])
     coarse, anchors = _anchors(curve, closed, coarse)
     return jax.lax.cond(
         _lost(points, anchors, jnp.sum((points - foot) ** 2, -1)),
-        lambda: project(points, curve, closed, coarse),
+        lambda: project(points, curve, closed, coarse, count),
         lambda: (near, fraction),
     )
 
@@ -187,6 +217,7 @@ def distances(
     closed: bool,
     coarse: int = 8,
     chunk: int = 256,
+    count: Int[Array, ""] | None = None,
 ) -> Float[Array, " m"]:
     """Exact distance from each point to the polyline `curve`.
 
@@ -201,12 +232,13 @@ def distances(
 
     Differentiable in `points` and `curve`: the distance to the nearest point found,
     with that point's segment held fixed (its derivative where the nearest point is
-    unique; zero where a point lies on the polyline).
+    unique; zero where a point lies on the polyline). `count`: as for `project`.
     """
     differentiable = (points, curve)
     points, curve = jax.lax.stop_gradient((points, curve))
     N = curve.shape[0]
-    coarse, anchors, nearest, segment, fraction = _coarse_to_fine(points, curve, closed, coarse)
+    coarse, anchors, nearest, segment, fraction = _coarse_to_fine(points, curve, closed, coarse,
+                                                                  count)
     k = anchors.shape[0]
     a, b = _segment_ends(curve, closed)
     found = jnp.sqrt(jnp.sum((points - a[segment] - fraction[:, None] * (b[segment] - a[segment])) ** 2, -1))
@@ -272,8 +304,10 @@ def band_basis(
     supported on `width - 1` intervals, so a limit point or tangent depends on at most
     `width - 1` consecutive control points and a segment between two samples on `width`.
     Each segment's window is the one holding the most of its rows' weight (all of it;
-    checked: a row reaching outside its window stops the fit with an error, as that
-    would be a defect of this function, never of the data).
+    checked: a row reaching outside its window would be a defect of this function, never
+    of the data, and makes the rows NaN, so the fit fails visibly instead of silently.
+    Not `eqx.error_if`: its host callback would keep JAX from writing the compiled fit
+    to the persistent compilation cache).
     """
     N, n = A.shape
     V = jnp.zeros_like(A) if V is None else V
@@ -290,11 +324,7 @@ def band_basis(
     window = window % n if closed else window
     rows = lambda M: jnp.take_along_axis(M, window, axis=1)
     ends = jnp.stack([rows(A), rows(V), rows(A[nxt]), rows(V[nxt])], axis=1)
-    ends = eqx.error_if(
-        ends, jnp.max(outside) > 1e-9 * jnp.max(weight),
-        "fitting: a curve-basis row reaches beyond its scheme's mask length (a defect of "
-        "the banded assembly; please report it with the scheme and n_control).",
-    )
+    ends = jnp.where(jnp.max(outside) > 1e-9 * jnp.max(weight), jnp.nan, ends)
     return Band(start=start, ends=ends)
 
 
@@ -450,7 +480,9 @@ def locate(
     )
 
 
-def chord_band(points: Float[Array, "m d"], closed: bool) -> Float[Array, " m"]:
+def chord_band(
+    points: Float[Array, "m d"], closed: bool, count: Int[Array, ""] | None = None
+) -> Float[Array, " m"]:
     """How far a smooth curve through the ordered `points` may stray from each chord.
 
     For chord `j` (from point `j` to `j + 1`) of length `h`: the larger of `h / 16` and
@@ -460,9 +492,17 @@ def chord_band(points: Float[Array, "m d"], closed: bool) -> Float[Array, " m"]:
     is large between samples (limits of four-point schemes have unbounded curvature at
     dense sets of points); measured on noise-free four-point data, the curve exceeded
     twelve sagittas, but stayed within `h / 16`.
+
+    `count`: for a closed polyline padded after its last vertex, the number of its own
+    vertices (`_closed_segments`): the last one's neighbour is then the first, and the
+    padding's chords (of length zero) get a zero band.
     """
-    prev = jnp.roll(points, 1, axis=0)
-    nxt = jnp.roll(points, -1, axis=0)
+    M = points.shape[0]
+    index = jnp.arange(M)
+    last = M - 1 if count is None or not closed else count - 1
+    # Each vertex's neighbours along the outline, for its turning angle.
+    prev = points[jnp.where(index == 0, last, index - 1)]
+    nxt = points[jnp.where(index == last, 0, (index + 1) % M)]
     before, after = points - prev, nxt - points
     len_before, len_after = safe_norm(before), safe_norm(after)
     # The turning angle as atan2(|a x b|, a.b): unlike arccos of the cosine, it has a
@@ -477,5 +517,9 @@ def chord_band(points: Float[Array, "m d"], closed: bool) -> Float[Array, " m"]:
     kappa = angle / jnp.where(mean > 0, mean, 1.0)
     if not closed:  # the ends have one chord: use their neighbor's curvature
         kappa = kappa.at[0].set(kappa[1]).at[-1].set(kappa[-2])
-    bound = jnp.maximum(kappa, jnp.roll(kappa, -1))
-    return jnp.maximum(len_after / 16, 3 * len_after**2 * bound / 8)
+    # Chord j runs from vertex `start` to `end`; the polyline's last closes the outline.
+    start = jnp.where(index == M - 1, last, index)
+    end = (index + 1) % M
+    length = safe_norm(points[end] - points[start])
+    bound = jnp.maximum(kappa[start], kappa[end])
+    return jnp.maximum(length / 16, 3 * length**2 * bound / 8)

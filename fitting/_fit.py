@@ -1,4 +1,5 @@
 import concurrent.futures
+import contextlib
 import math
 import os
 import warnings
@@ -19,7 +20,7 @@ from jaxsubdiv._refine import _min_points
 from . import _progress
 from ._curve import curve_samples, distances, evaluate, locate, safe_norm
 from ._init import initial_control, order_samples
-from ._objective import BACK_WEIGHT as BACK_WEIGHT, Objective
+from ._objective import BACK_WEIGHT as BACK_WEIGHT, FitData, Objective
 from ._params import fitted_names, from_unconstrained, to_unconstrained
 from ._solver import FootPointLevenbergMarquardt
 
@@ -126,6 +127,8 @@ def _make_solver(solver, rtol: float, atol: float, progress: bool = False):
     # well-conditioned control-point problems, with the same steps (shared notes, d2).
     normal = lx.Normal(lx.Cholesky())
     verbose = _progress.progress_verbose if progress else False
+    # Arrays, so that the compiled program takes them as data (new values, no compiling).
+    rtol, atol = jnp.asarray(rtol), jnp.asarray(atol)
     if solver == "optimistix-levenberg-marquardt":
         return optx.LevenbergMarquardt(rtol, atol, linear_solver=normal, verbose=verbose)
     if solver == "gauss-newton":
@@ -151,12 +154,19 @@ def _default_tol(dtype) -> float:
     return 1e-7 if dtype == jnp.float64 else 1e-5
 
 
-def _check_tol(tol, caller: str) -> float:
-    """`tol` as a Python float: a finite positive number (it sets static solver fields)."""
-    number = isinstance(tol, (int, float, np.integer, np.floating))
-    if isinstance(tol, (bool, np.bool_)) or not number:
+def _check_tol(tol, caller: str):
+    """`tol` checked: a finite positive real number (a traced scalar is not checked)."""
+    if is_traced(tol):
+        if np.ndim(tol) != 0:
+            raise ValueError(f"`{caller}(tol=...)` must be a scalar; got shape {np.shape(tol)}.")
+        return tol
+    real = isinstance(tol, (int, float, np.integer, np.floating)) or (
+        isinstance(tol, (np.ndarray, jax.Array)) and np.ndim(tol) == 0
+        and np.issubdtype(np.asarray(tol).dtype, np.floating)
+    )
+    if isinstance(tol, (bool, np.bool_)) or not real:
         raise TypeError(f"`{caller}(tol=...)` must be a number such as 1e-7; got {tol!r}.")
-    if not (math.isfinite(tol) and tol > 0):
+    if not (math.isfinite(float(tol)) and float(tol) > 0):
         raise ValueError(f"`{caller}(tol=...)` must be finite and positive; got {tol!r}.")
     return float(tol)
 
@@ -167,6 +177,52 @@ def default_levels(n: int, m: int, hermite: bool) -> int:
     have a few samples fewer: the limit stencils do not reach their end points."""
     samples = max(512, 2 * m) if hermite else max(1024, 4 * m)
     return max(2, math.ceil(math.log2(samples / n)))
+
+
+def bucket(m: int, smallest: int = 16) -> int:
+    """The sample count a fit's program is compiled for: the smallest of 16, 24, 32,
+    48, 64, 96, ... (powers of two and 1.5 times them, from `smallest`) that holds `m`
+    samples. (`fit_batch` buckets its item counts the same way, from 1.)
+
+    Outlines are padded up to it (copies of the last sample with weight zero, which the
+    fit ignores), so outlines of different lengths share one compiled program at a
+    cost of at most a third more samples (measured in `benchmarks/bench_startup.py`).
+    """
+    size = smallest
+    while size < m:  # 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, ...
+        size = size + max(1, size // 2) if size & (size - 1) == 0 else size * 4 // 3
+    return size
+
+
+def _pad(target, weights, size: int):
+    """`target` and `weights` padded to `size` samples: copies of the last sample, with
+    weight zero (for a closed outline the closing chord then runs from the last copy to
+    the first sample; `_curve._closed_segments` keeps searches across it local).
+
+    numpy for concrete arrays: JAX would compile the padding for every new length."""
+    extra = size - target.shape[0]
+    if extra == 0:
+        return target, weights
+    xp = jnp if is_traced(target) or is_traced(weights) else np
+    target = xp.concatenate([target, xp.repeat(target[-1:], extra, axis=0)])
+    weights = xp.concatenate([weights, xp.zeros((extra,), weights.dtype)])
+    return target, weights
+
+
+def _numbers(smoothing, tol, max_steps, dtype, own_solver: bool):
+    """The traced settings of `_fit_one`: (root of smoothing, tol, max_steps); numpy
+    for concrete values (no compiling of scalar operations)."""
+    xp = jnp if is_traced(smoothing) or is_traced(tol) else np
+    steps = np.int32(max_steps) if own_solver else max_steps
+    return xp.sqrt(xp.asarray(smoothing, dtype)), xp.asarray(tol, dtype), steps
+
+
+def _program_key(target, size: int, scheme, init, static) -> tuple:
+    """What selects `_fit_jit`'s compiled program besides the data's values (for the
+    progress display's "compiling" line)."""
+    settings = tuple((k, v) for k, v in sorted(static.items()) if k not in ("solver",))
+    return (size, target.shape[1], str(target.dtype), init is None,
+            jax.tree.structure(scheme), type(static["solver"]).__name__, settings)
 
 
 def _status(result) -> Array:
@@ -220,45 +276,56 @@ def _band_width(scheme, n: int) -> int:
     return width if n >= 4 * width else 0
 
 
-def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, names,
-             solver, tol, max_steps, smooth_rows, hermite, progress=False):
-    """Fit one target (pure JAX; `fit` and `fit_batch` jit and vmap this)."""
+def _fit_one(target, weights, count, scheme, init, numbers, *, n, levels, boundary, names,
+             solver, hermite, progress=False):
+    """Fit one target (pure JAX; `fit` and `fit_batch` jit and map this).
+
+    `target` and `weights` are padded to their shape bucket (`bucket`); `count` is the
+    number of samples before padding. `numbers = (root_smoothing, tol, max_steps)` are
+    arrays: traced, so new values reuse the compiled program. With a solver of
+    optimistix's own, `max_steps` is its static step limit (optimistix needs an int).
+    """
+    root_smoothing, tol, max_steps = numbers
     closed = boundary == "closed"
     dtype = target.dtype
     m = target.shape[0]
-    # Samples with zero weight (including the padding of ragged batches) are ignored.
+    # Samples with zero weight (including the padding) are ignored.
     valid = weights > 0
-    share = (valid / jnp.sum(valid)).astype(dtype)
+    valid_count = jnp.sum(valid)
+    share = (valid / valid_count).astype(dtype)
     center = share @ target
     scale = jnp.sqrt(share @ jnp.sum((target - center) ** 2, -1))
     scale = jnp.where(scale > 0, scale, 1.0)
     T = (target - center) / scale  # work in units of the outline's size
     N = curve_samples(scheme, n, levels, boundary)
     objective = Objective(n=n, levels=levels, boundary=boundary, names=names, hermite=hermite,
-                          smooth_rows=smooth_rows, num_curve=N, num_target=m,
-                          band=_band_width(scheme, n))
+                          num_curve=N, num_target=m, band=_band_width(scheme, n))
     # The curve's basis at the starting parameters: for the initial linear fit, for the
     # whole solve when no parameter is fitted, and for the final curve then.
     basis = objective.basis_of(scheme, dtype)
     if basis[0].shape[0] != N:  # static shapes: a defect here, never the data's
         raise AssertionError(f"curve_samples gave {N}, the basis has {basis[0].shape[0]} rows")
     if init is None:
-        P0 = initial_control(T, weights, basis[0], boundary, smoothing)
+        P0 = initial_control(T, weights, basis[0], boundary, root_smoothing**2)
     else:
         P0 = (init - center) / scale
     y0 = {"control": jax.lax.stop_gradient(P0), "params": to_unconstrained(scheme, names)}
-    if solver is None:
-        # Stop when two accepted steps in a row lower the loss (a sum of m squared
-        # distances) by less than `tol` of it, or the loss is below m tol^2 (RMS `tol`).
+    own_solver = solver is None
+    if own_solver:
+        # Stop when two accepted steps in a row lower the loss (a sum of squared
+        # distances over the valid samples) by less than `tol` of it, or the loss is
+        # below that count times tol^2 (RMS `tol`).
         solver = FootPointLevenbergMarquardt(
-            rtol=tol, atol=m * tol**2, model=objective.quadratic_model, hint=objective.feet,
+            rtol=tol, atol=valid_count * tol**2, max_steps=max_steps,
+            model=objective.quadratic_model, hint=objective.feet,
             verbose=_progress.progress_verbose if progress else None,
         )
-    args = (T, weights, scheme, smoothing, None if names else basis)
+    args = FitData(T, weights, scheme, root_smoothing, None if names else basis, count)
     sol = optx.least_squares(
-        objective.residuals, solver, y0, args=args, max_steps=max_steps, throw=False
+        objective.residuals, solver, y0, args=args, max_steps=None if own_solver else max_steps,
+        throw=False,
     )
-    newton = _newton_step(objective, sol, args, isinstance(solver, FootPointLevenbergMarquardt))
+    newton = _newton_step(objective, sol, args, own_solver)
     fitted = from_unconstrained(scheme, names, sol.value["params"])
     P = sol.value["control"]
     A, V, _ = objective.basis_of(fitted, dtype) if names else basis
@@ -268,7 +335,7 @@ def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, n
         # so never below the true distance to it). The default solver found them at its
         # last accepted point (closed curves; open ones pin their ends' feet) with the
         # same search as `locate`: reusing them saves compiling that search once more.
-        if closed and isinstance(solver, FootPointLevenbergMarquardt):
+        if closed and own_solver:
             tau = sol.state.hint[0]
         else:
             tau = locate(T, X, V @ P, closed, coarse=max(1, min(8, N // 64)))
@@ -279,7 +346,7 @@ def _fit_one(target, weights, scheme, init, smoothing, *, n, levels, boundary, n
     else:
         t2c = distances(T, X, closed)
     t2c = jnp.where(valid, t2c * scale, 0.0)
-    c2t = distances(X, T, closed) * scale
+    c2t = distances(X, T, closed, count=count) * scale
     rms_t2c, rms_c2t = jnp.sqrt(share @ t2c**2), jnp.sqrt(jnp.mean(c2t**2))
     return FitResult(
         control_points=center + scale * P,
@@ -330,11 +397,28 @@ def _looks_open(target: np.ndarray) -> tuple[bool, float, float]:
     return closing > typical, closing, float(np.median(gaps))
 
 
+def _float_array(value, name: str):
+    """`as_float_array`, but a numpy array for concrete values: the host-side checks,
+    ordering and padding then compile nothing for a new sample count (JAX compiles its
+    eager operations per shape); the fit's one call moves the data to the device."""
+    if is_traced(value):
+        return as_float_array(value, name)
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"`{name}` must be array-like, got {type(value).__name__}.") from e
+    if array.dtype == object:
+        return as_float_array(value, name)  # its own error message
+    if not np.issubdtype(array.dtype, np.inexact):
+        return array.astype(jax.dtypes.canonicalize_dtype(float))
+    return array.astype(jax.dtypes.canonicalize_dtype(array.dtype), copy=False)
+
+
 def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights, ordered,
-            smoothing, caller="fit"):
+            smoothing, caller="fit", pad_to=0):
     """Validate the arguments of `fit` (and each item of `fit_batch`); return the
     checked target, weights, static settings and names."""
-    target = as_float_array(target, "target")
+    target = _float_array(target, "target")
     if target.dtype not in (jnp.float32, jnp.float64):
         raise TypeError(
             f"`{caller}(target=...)` must be real float32 or float64; got {target.dtype}. "
@@ -374,13 +458,14 @@ def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights,
             + "); give at least as many samples as unknowns, or fewer control points."
         )
     if levels is None:
-        levels = default_levels(n, m, _uses_tangents(scheme, names, boundary))
+        levels = default_levels(n, bucket(max(m, pad_to)), _uses_tangents(scheme, names,
+                                                                          boundary))
     else:
         levels = static_int(levels, "levels", minimum=1)
     if weights is None:
-        weights = jnp.ones((m,), target.dtype)
+        weights = np.ones((m,), target.dtype)
     else:
-        weights = as_float_array(weights, "weights").astype(target.dtype)
+        weights = _float_array(weights, "weights").astype(target.dtype)
         if weights.shape != (m,):
             raise ValueError(
                 f"`{caller}(weights=...)` must have shape ({m},), one per sample; got "
@@ -431,10 +516,9 @@ def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights,
         raise ValueError(
             f"`{caller}(smoothing=...)` must be a scalar; got shape {np.shape(smoothing)}."
         )
-    smooth_rows = is_traced(smoothing) or float(smoothing) != 0.0
     if not is_traced(smoothing) and not (math.isfinite(float(smoothing)) and float(smoothing) >= 0):
         raise ValueError(f"`{caller}(smoothing=...)` must be finite and >= 0, got {smoothing}.")
-    return target, weights, n, levels, names, smooth_rows
+    return target, weights, n, levels, names
 
 
 def report(result: FitResult, on_failure: str, caller: str = "fit") -> None:
@@ -474,8 +558,9 @@ def fit(
     weights: Float[ArrayLike, " m"] | None = None,
     smoothing: float = 0.0,
     ordered: bool = True,
-    progress: bool = False,
+    progress: bool | Literal["time"] = False,
     on_failure: Literal["raise", "warn", "ignore"] = "warn",
+    pad_to: int | None = None,
 ) -> FitResult:
     """Fit a control polygon (and optionally the scheme's parameters) to an outline.
 
@@ -502,6 +587,15 @@ def fit(
     respect to the target, the weights, the smoothing and the scheme's parameters, by
     implicit differentiation of the optimum (`optimistix.ImplicitAdjoint`).
 
+    **Compilation.** The fit is one compiled program per shape and static setting:
+    sample-count bucket (the `m` samples are padded with ignored copies to the next of
+    16, 24, 32, 48, 64, 96, ...: outlines of 400 and 500 samples share the program for
+    512), dimension, dtype, `n_control`, `levels`, `boundary`, the scheme's type,
+    `fit_params`, `solver` and whether `init` is given. Values are data: new samples,
+    `weights`, `smoothing`, `tol`, `max_steps` (with the default solver) and scheme
+    parameter values compile nothing. `jaxsubdiv.enable_compilation_cache()` keeps
+    compiled programs on disk for later processes.
+
     **Arguments:**
 
     - `target`: samples of the outline, shape `(m, d)`, `d >= 2`, in order along it
@@ -510,8 +604,9 @@ def fit(
       values when they are fitted.
     - `n_control`: number of control points (static).
     - `levels`: levels at which the curve is sampled exactly (static; default: enough
-      for max(512, 2m) refined points joined by Hermite segments, or max(1024, 4m)
-      joined by chords; an open curve has a few samples fewer at its ends).
+      for max(512, 2M) refined points joined by Hermite segments, or max(1024, 4M)
+      joined by chords, for the sample-count bucket M (see Compilation); an open curve
+      has a few samples fewer at its ends).
     - `boundary`: `"closed"`, `"open"` or `"clamped"`, as in [`jaxsubdiv.refine`][].
     - `fit_params`: `False`, `True` (all of the scheme's parameters) or names such as
       `("w",)`. Fittable: `CornerCutting` r, s; `FourPoint` w (kept in
@@ -521,7 +616,8 @@ def fit(
       `"optimistix-levenberg-marquardt"`, `"gauss-newton"`, `"dogleg"`, `"bfgs"`
       (optimistix's own, on the same residuals, Jacobians by autodiff; slower), or any
       optimistix least-squares solver or minimiser.
-    - `max_steps`: solver step limit.
+    - `max_steps`: solver step limit (traced with the default solver; with optimistix's
+      own solvers it is their static limit, and a new value compiles again).
     - `tol`: the default solver stops when two accepted steps in a row each lower the
       loss (a sum of squared distances) by less than `tol` of itself, or the RMS
       distance is below `tol` of the outline's size; optimistix's solvers use it as
@@ -538,25 +634,37 @@ def fit(
       squared sample distances (in units of the outline's size); its effect therefore
       weakens as the number of samples grows.
     - `ordered`: False to order unordered samples first ([`fitting.order_samples`][]).
-    - `progress`: show the step count and loss on stderr while the solver runs.
+    - `progress`: `True` to show the step count and loss on stderr while the solver
+      runs (from a host callback inside the compiled program, which JAX then does not
+      write to its persistent compilation cache); `"time"` to show the elapsed time
+      instead, from a host thread (the program is unchanged and cacheable: what the
+      `jaxsubdiv` command uses). Either also says on stderr when a program is prepared
+      for the first time in the process (compiled, or loaded from the cache).
     - `on_failure`: what to do if the solver does not converge: `"raise"` a
       `RuntimeError`, `"warn"` (default) or `"ignore"`. The last iterate is always
       returned, with `converged` False and the reason in `message`. Under `jax.jit`
       (or `grad`) the status is not known while tracing, so nothing is raised or
       warned: check `result.converged` yourself.
+    - `pad_to`: compile for at least this many samples (the bucket of `max(m, pad_to)`),
+      so that fits of outlines of different lengths, such as the contours of one file,
+      share one program. The padding's samples are ignored; each costs as much as a
+      sample in every solver step.
 
     **Returns:** a [`fitting.FitResult`][].
     """
     if on_failure not in ("raise", "warn", "ignore"):
         raise ValueError(f"`on_failure` must be 'raise', 'warn' or 'ignore'; got {on_failure!r}.")
-    target, weights, n, levels, names, smooth_rows = prepare(
+    pad_to = 0 if pad_to is None else static_int(pad_to, "pad_to", minimum=1)
+    if not (isinstance(progress, bool) or progress == "time"):
+        raise ValueError(f"`fit(progress=...)` must be True, False or 'time'; got {progress!r}.")
+    target, weights, n, levels, names = prepare(
         target, scheme, n_control, levels=levels, boundary=boundary, fit_params=fit_params,
-        weights=weights, ordered=ordered, smoothing=smoothing,
+        weights=weights, ordered=ordered, smoothing=smoothing, pad_to=pad_to,
     )
     max_steps = static_int(max_steps, "max_steps", minimum=1)
     tol = _default_tol(target.dtype) if tol is None else _check_tol(tol, "fit")
     if init is not None:
-        init = as_float_array(init, "init").astype(target.dtype)
+        init = _float_array(init, "init").astype(target.dtype)
         if init.shape != (n, target.shape[1]):
             raise ValueError(
                 f"`fit(init=...)` must have shape ({n}, {target.shape[1]}); got {init.shape}."
@@ -569,15 +677,26 @@ def fit(
         # float32 iterates; solve in float64 and return float32.
         target, weights = target.astype(jnp.float64), weights.astype(jnp.float64)
         init = None if init is None else init.astype(jnp.float64)
-    result = _fit_jit(
-        target, weights, scheme, init, jnp.asarray(smoothing, target.dtype), n=n,
-        levels=levels, boundary=boundary, names=names,
-        solver=_make_solver(solver, tol, tol, progress), tol=tol, max_steps=max_steps,
-        smooth_rows=smooth_rows, hermite=_uses_tangents(scheme, names, boundary),
-        progress=progress,
+    m = target.shape[0]
+    size = bucket(max(m, pad_to))
+    steps = progress is True  # a line per solver step, from inside the program
+    static = dict(
+        n=n, levels=levels, boundary=boundary, names=names,
+        solver=_make_solver(solver, tol, tol, steps),
+        hermite=_uses_tangents(scheme, names, boundary), progress=steps,
     )
     if progress:
-        jax.block_until_ready(result)
+        _progress.compiling(_program_key(target, size, scheme, init, static), size)
+    padded, weights = _pad(target, weights, size)
+    clock = _progress.elapsed() if progress == "time" else contextlib.nullcontext()
+    with clock:
+        result = _fit_jit(
+            padded, weights, np.int32(m), scheme, init,
+            _numbers(smoothing, tol, max_steps, target.dtype, solver is None), **static,
+        )
+        if progress:
+            jax.block_until_ready(result)
+    if steps:
         _progress.finish()
     if result.control_points.dtype != dtype:
         cast = lambda x: x.astype(dtype) if eqx.is_inexact_array(x) else x
@@ -586,40 +705,35 @@ def fit(
     return result
 
 
-def _pad_ragged(targets, weights):
-    """Stack targets of different lengths, padding each with zero-weight copies of its
-    last sample (so chord lengths and the closing chord are unchanged)."""
-    m = max(t.shape[0] for t in targets)
-    stacked, stacked_weights = [], []
-    for t, w in zip(targets, weights):
-        extra = m - t.shape[0]
-        stacked.append(jnp.concatenate([t, jnp.repeat(t[-1:], extra, axis=0)]))
-        stacked_weights.append(jnp.concatenate([w, jnp.zeros((extra,), w.dtype)]))
-    return jnp.stack(stacked), jnp.stack(stacked_weights)
-
-
-def _fit_items(targets, weights, scheme, smoothing, *, devices: int, **static):
+def _fit_items(targets, weights, counts, steps, scheme, numbers, total, *, devices: int,
+               **static):
     """Fit `(k, m, d)` targets one after another (`lax.map`, a scan of single solves).
 
     One after another rather than `vmap` over the items: a batched solver loop runs every
     item until the slowest converges, and its batched gathers and factorizations ran
     slower per item on CPU; measured 1.9x slower than a Python loop of single fits (64
     items), where `lax.map` matches the loop with one dispatch for the whole batch.
+    `steps`: each item's step limit `(k,)`, or one static int for optimistix's solvers;
+    `numbers = (root_smoothing, tol)`; `total`: the number of real items in the whole
+    batch (for the progress line).
     """
     progress = static.pop("progress", False)
-    count = targets.shape[0]
+    per_item = eqx.is_array(steps)
 
     def solve(item):
-        index, target, weight = item
-        result = _fit_one(target, weight, scheme, None, smoothing, progress=False, **static)
+        index, target, weight, count, *limit = item
+        numbers_i = (*numbers, limit[0] if per_item else steps)
+        result = _fit_one(target, weight, count, scheme, None, numbers_i, progress=False,
+                          **static)
         if progress:  # one line for the batch: outlines done, not every solver step
-            _progress.items_done(index, count, devices)
+            _progress.items_done(index, devices, total)
         return result
 
-    return jax.lax.map(solve, (jnp.arange(count), targets, weights))
+    items = (jnp.arange(targets.shape[0]), targets, weights, counts)
+    return jax.lax.map(solve, items + ((steps,) if per_item else ()))
 
 
-def _batched(targets, weights, scheme, smoothing, **static):
+def _batched(targets, weights, counts, steps, scheme, numbers, total, **static):
     """Fit `(devices, per_device, m, d)` targets: `vmap` over the device axis, which the
     sharding splits (one slice per device), and one item after another within a device.
 
@@ -632,13 +746,18 @@ def _batched(targets, weights, scheme, smoothing, **static):
     """
     count = targets.shape[0]
     shares = static.pop("shares", 1)  # concurrent calls of this program (progress only)
-    items = lambda t, w: _fit_items(t, w, scheme, smoothing, devices=count * shares, **static)
+    per_item = eqx.is_array(steps)
+    items = lambda t, w, c, k: _fit_items(t, w, c, k if per_item else steps, scheme, numbers,
+                                          total, devices=count * shares, **static)
     if count == 1:
         # No vmap for one device: under vmap, the solver's `lax.cond`s (the global
         # foot-point search that `_curve.track` and `_curve.distances` fall back to)
         # would run both branches at every step.
-        return jax.tree.map(lambda x: x[None], items(targets[0], weights[0]))
-    return jax.vmap(items)(targets, weights)
+        result = items(targets[0], weights[0], counts[0], steps[0] if per_item else None)
+        return jax.tree.map(lambda x: x[None], result)
+    if per_item:
+        return jax.vmap(items)(targets, weights, counts, steps)
+    return jax.vmap(lambda t, w, c: items(t, w, c, None))(targets, weights, counts)
 
 
 # Module level, so that repeated calls with the same shapes and settings reuse the
@@ -653,56 +772,62 @@ def _available_cores() -> int:
         return os.cpu_count() or 1
 
 
-def _run_batch(targets, weights, scheme, smoothing, static, devices, threads):
+def _run_batch(targets, weights, counts, scheme, numbers, static, devices, threads):
+    """Fit the stacked batch over `devices`, or on one CPU device from `threads` threads.
+
+    Each device's (or thread's) share is padded to an item-count bucket (`bucket(...,
+    smallest=1)`), so batches of similar sizes share one compiled program; the padding
+    items are copies of the first, stopped after one step by the default solver.
+    `numbers = (root_smoothing, tol, max_steps)`.
+    """
     size = targets.shape[0]
-    count = len(devices)
+    root_smoothing, tol, max_steps = numbers
+    per_item = static["solver"] is None  # else max_steps is optimistix's static limit
     # Threads only for concrete arrays: inside a trace (`jit`, `grad` of the batch) the
     # whole batch is one program anyway, and tracing is not shared across threads.
-    concrete = not is_traced(targets)
-    if concrete and count == 1 and devices[0].platform == "cpu" and 1 < threads <= size // 2:
-        return _run_threaded(targets, weights, scheme, smoothing, static, devices[0], threads)
-    extra = -size % count  # the batch must divide evenly over the devices
-    if extra:
-        targets = jnp.concatenate([targets, jnp.repeat(targets[:1], extra, axis=0)])
-        weights = jnp.concatenate([weights, jnp.repeat(weights[:1], extra, axis=0)])
-    split = lambda x: x.reshape((count, -1) + x.shape[1:])
-    targets, weights = split(targets), split(weights)
-    if count == 1:
-        targets, weights = jax.device_put((targets, weights), devices[0])
+    threaded = (not is_traced(targets) and len(devices) == 1
+                and devices[0].platform == "cpu" and 1 < threads <= size // 2)
+    parts = threads if threaded else len(devices)
+    share = bucket(-(-size // parts), smallest=1)
+    extra = parts * share - size
+    xp = jnp if is_traced(targets) or is_traced(weights) else np  # as in `_pad`
+    pad = lambda x: xp.concatenate([x, xp.repeat(x[:1], extra, axis=0)]) if extra else x
+    arrays = [pad(targets), pad(weights), pad(counts)]
+    if per_item:
+        arrays.append(np.concatenate([np.full((size,), max_steps, np.int32),
+                                      np.ones((extra,), np.int32)]))
+    # (parts, share, ...): one slice per device, or per thread.
+    arrays = [x.reshape((parts, share) + x.shape[1:]) for x in arrays]
+    steps = arrays.pop() if per_item else max_steps
+    total = np.int32(size)
+    program = lambda t, w, c, k, **extra_static: _batched_jit(
+        t, w, c, k, scheme, (root_smoothing, tol), total, **static, **extra_static
+    )
+    if threaded:
+        # The same compiled program from `threads` Python threads, one share each: XLA's
+        # CPU client runs them concurrently (JAX releases the GIL while a program runs).
+        # Measured on 2 cores: 40 outlines in 0.32 s instead of 0.57 s in one call.
+        # Concurrent first calls compile the program once (checked with
+        # `jax_log_compiles`). Each share keeps a leading device axis of one.
+        def run(k):
+            t, w, c = (x[k:k + 1] for x in arrays)
+            limit = steps[k:k + 1] if per_item else steps
+            return jax.block_until_ready(program(t, w, c, limit, shares=threads))
+
+        with concurrent.futures.ThreadPoolExecutor(threads) as pool:
+            done = list(pool.map(run, range(threads)))
+        merge = lambda *x: jnp.concatenate([p.reshape((-1,) + p.shape[2:]) for p in x])[:size]
+        return jax.tree.map(lambda *x: merge(*x) if eqx.is_array(x[0]) else x[0], *done)
+    if len(devices) == 1:
+        arrays = jax.device_put(arrays, devices[0])
     else:
         # The device axis is split over the devices; XLA partitions the program (SPMD).
         mesh = jax.sharding.Mesh(np.array(devices), ("batch",))
         sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("batch"))
-        targets, weights = jax.device_put((targets, weights), sharding)
-    result = _batched_jit(targets, weights, scheme, smoothing, **static)
+        arrays = jax.device_put(arrays, sharding)
+    result = program(*arrays, steps)
     merge = lambda x: x.reshape((-1,) + x.shape[2:])[:size]
     return jax.tree.map(lambda x: merge(x) if eqx.is_array(x) else x, result)
-
-
-def _run_threaded(targets, weights, scheme, smoothing, static, device, threads):
-    """`threads` equal shares of the batch, each fitted by the same compiled program on
-    `device` from its own Python thread: XLA's CPU client runs them concurrently (JAX
-    releases the GIL while a program runs). Measured on 2 cores: 40 outlines in 0.32 s
-    instead of 0.57 s in one call. Concurrent first calls compile the program once
-    (checked with `jax_log_compiles`)."""
-    size = targets.shape[0]
-    extra = -size % threads
-    if extra:
-        targets = jnp.concatenate([targets, jnp.repeat(targets[:1], extra, axis=0)])
-        weights = jnp.concatenate([weights, jnp.repeat(weights[:1], extra, axis=0)])
-    share = targets.shape[0] // threads
-    static = dict(static, shares=threads)
-    # Each share keeps a leading device axis of one (the layout `_batched` expects).
-    shares = [
-        jax.device_put((targets[None, k * share:(k + 1) * share],
-                        weights[None, k * share:(k + 1) * share]), device)
-        for k in range(threads)
-    ]
-    run = lambda t, w: jax.block_until_ready(_batched_jit(t, w, scheme, smoothing, **static))
-    with concurrent.futures.ThreadPoolExecutor(threads) as pool:
-        parts = list(pool.map(lambda tw: run(*tw), shares))
-    merge = lambda *x: jnp.concatenate([part.reshape((-1,) + part.shape[2:]) for part in x])[:size]
-    return jax.tree.map(lambda *x: merge(*x) if eqx.is_array(x[0]) else x[0], *parts)
 
 
 def fit_batch(
@@ -758,9 +883,9 @@ def fit_batch(
     if on_failure not in ("raise", "warn", "ignore"):
         raise ValueError(f"`on_failure` must be 'raise', 'warn' or 'ignore'; got {on_failure!r}.")
     if isinstance(targets, (list, tuple)):
-        items = [as_float_array(t, "targets[i]") for t in targets]
+        items = [_float_array(t, "targets[i]") for t in targets]
     else:
-        array = as_float_array(targets, "targets")
+        array = _float_array(targets, "targets")
         if array.ndim != 3:
             raise ValueError(
                 f"`fit_batch(targets=...)` must be an array of shape (B, m, d) or a list of "
@@ -797,28 +922,32 @@ def fit_batch(
             circle = np.zeros(t.shape)
             circle[:, 0], circle[:, 1] = np.cos(angle), np.sin(angle)
             t, w = jnp.asarray(circle, t.dtype), None
-        t, w, n, _, names, smooth_rows = prepare(
+        t, w, n, _, names = prepare(
             t, scheme, n_control, levels=levels, boundary=boundary, fit_params=fit_params,
             weights=w, ordered=ordered, smoothing=smoothing, caller=f"fit_batch(targets[{i}])",
         )
         prepared.append((t, w))
-    m_max = max(t.shape[0] for t, _ in prepared)
+    # One sample-count bucket for the whole batch: every item padded to it.
+    size = bucket(max(t.shape[0] for t, _ in prepared))
     if levels is None:
-        levels = default_levels(n, m_max, _uses_tangents(scheme, names, boundary))
-    stacked, stacked_weights = _pad_ragged([t for t, _ in prepared], [w for _, w in prepared])
+        levels = default_levels(n, size, _uses_tangents(scheme, names, boundary))
+    padded = [_pad(t, w, size) for t, w in prepared]
+    xp = jnp if any(is_traced(x) for item in padded for x in item) else np
+    stacked = xp.stack([t for t, _ in padded])
+    stacked_weights = xp.stack([w for _, w in padded])
+    counts = np.array([t.shape[0] for t, _ in prepared], np.int32)
     max_steps = static_int(max_steps, "max_steps", minimum=1)
     tol = _default_tol(stacked.dtype) if tol is None else _check_tol(tol, "fit_batch")
     static = dict(
         n=n, levels=levels, boundary=boundary, names=names,
-        solver=_make_solver(solver, tol, tol, progress), tol=tol, max_steps=max_steps,
-        smooth_rows=smooth_rows, hermite=_uses_tangents(scheme, names, boundary),
-        progress=progress,
+        solver=_make_solver(solver, tol, tol, progress),
+        hermite=_uses_tangents(scheme, names, boundary), progress=progress,
     )
     if progress:
         _progress.begin()
     result = _run_batch(
-        stacked, stacked_weights, scheme, jnp.asarray(smoothing, stacked.dtype), static,
-        devices,
+        stacked, stacked_weights, counts, scheme,
+        _numbers(smoothing, tol, max_steps, stacked.dtype, solver is None), static, devices,
         _available_cores() if threads is None else static_int(threads, "threads", minimum=1),
     )
     if progress:

@@ -1,9 +1,8 @@
 """The fit's least-squares objective: residuals, foot points and their linearization.
 
 Unknowns `y = {"control": P (n, d), "params": unconstrained scheme parameters}`; the
-problem data `args = (target, weights, scheme, smoothing, basis)`, all in units of the
-outline's size; `basis` is `Objective.basis_of(scheme)` when no scheme parameter is
-fitted (computed once, outside the solver loop), else None. Three groups of residuals:
+problem data `args`, a [`FitData`][], all in units of the outline's size. Three groups of
+residuals:
 
 - target to curve: each sample's distance vector to the curve at its foot point, measured
   from the curve's tangent line there (tangent-distance minimization: W. Wang,
@@ -12,7 +11,8 @@ fitted (computed once, outside the solver loop), else None. Three groups of resi
   the curve instead of being frozen;
 - curve to target: every `stride`-th curve sample's distance to the polyline through the
   samples, at weight `BACK_WEIGHT`, so no part of the curve wanders off the data;
-- optional smoothing: second differences of the control points.
+- smoothing: second differences of the control points (zero rows at `smoothing=0`; always
+  present, so that every value of `smoothing` runs the same compiled program).
 
 The curve is the limit curve sampled exactly at the dyadic parameters of `levels` levels
 and, for $C^1$ schemes, interpolated between samples by cubic Hermite segments with the
@@ -20,6 +20,8 @@ exact limit tangents (see `_curve.evaluate`): its distance function is then smoo
 Gauss-Newton-type steps converge fast and to a well-defined optimum. Other schemes (e.g.
 corner cutting, which is only $C^0$ for most (r, s)) use the chords between samples.
 """
+
+from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax
@@ -47,6 +49,29 @@ from ._params import from_unconstrained
 BACK_WEIGHT = 0.1
 
 
+class FitData(NamedTuple):
+    """The data of one fit, every field traced (new values reuse the compiled program).
+
+    - `target`: `(m, d)` samples in units of the outline's size; the first `count` are
+      the outline, the rest padding (copies of the last sample, weight 0) up to the
+      program's sample-count bucket.
+    - `weights`: `(m,)`, zero for ignored samples and the padding.
+    - `scheme`: the scheme at its starting parameters.
+    - `root_smoothing`: the square root of the smoothing weight (the residual rows are
+      linear in it, so their derivatives stay finite at zero smoothing).
+    - `basis`: `Objective.basis_of(scheme)` when no scheme parameter is fitted
+      (computed once, outside the solver loop), else None.
+    - `count`: the number of samples before padding.
+    """
+
+    target: Any
+    weights: Any
+    scheme: Any
+    root_smoothing: Any
+    basis: Any
+    count: Any
+
+
 class Objective(eqx.Module):
     """The residuals of one fit (static settings; the data come in `args`)."""
 
@@ -55,7 +80,6 @@ class Objective(eqx.Module):
     boundary: str = eqx.field(static=True)
     names: tuple[str, ...] = eqx.field(static=True)
     hermite: bool = eqx.field(static=True)
-    smooth_rows: bool = eqx.field(static=True)
     num_curve: int = eqx.field(static=True)  # curve samples N
     num_target: int = eqx.field(static=True)  # target samples m (including padding)
     # Window of the banded Hessian assembly (the scheme's mask length), or 0: dense.
@@ -84,7 +108,7 @@ class Objective(eqx.Module):
 
     def basis(self, y, args):
         """The scheme at `y`'s parameters and its basis (`basis_of`)."""
-        target, _, base, _, fixed = args
+        target, base, fixed = args.target, args.scheme, args.basis
         if fixed is not None:
             return base, *fixed
         scheme = from_unconstrained(base, self.names, y["params"])
@@ -96,7 +120,7 @@ class Objective(eqx.Module):
 
         With the `previous` feet (e.g. the last solver step's), each foot is searched near
         its previous position first (`_curve.track`), globally only where that fails."""
-        target, weights = args[:2]
+        target, weights = args.target, args.weights
         _, A, V, _ = self.basis(y, args)
         P = y["control"]
         X = A @ P
@@ -106,9 +130,10 @@ class Objective(eqx.Module):
         held = X[self.held]
         coarse = max(1, min(8, self.num_target // 64))
         if previous is None:
-            segment, fraction = project(held, target, self.closed, coarse)
+            segment, fraction = project(held, target, self.closed, coarse, args.count)
         else:
-            segment, fraction = track(held, target, self.closed, coarse, previous[1], radius=6)
+            segment, fraction = track(held, target, self.closed, coarse, previous[1], radius=6,
+                                      count=args.count)
         if not self.closed:
             tau, segment, fraction = self._pin_ends(weights, tau, segment, fraction)
         return jax.lax.stop_gradient((tau, segment, fraction))
@@ -138,7 +163,7 @@ class Objective(eqx.Module):
         differentiation takes of this residual is the distance's own (feet held fixed,
         it would miss the curvature term).
         """
-        target, weights, _, smoothing, _ = args
+        target, weights = args.target, args.weights
         tau, segment, fraction = feet
         _, A, V, _ = self.basis(y, args)
         P = y["control"]
@@ -164,16 +189,14 @@ class Objective(eqx.Module):
         e = e * jnp.sqrt(scaled)[:, None]
         held = X[self.held]
         back = foot_residual(held, target, segment, fraction, self.closed)
-        band = self._band(target, segment)
+        band = self._band(target, segment, args.count)
         square = jnp.sum(back**2, -1)
         beyond = square > band**2  # a double `where`: no 0/0 in the derivative at 0
         length = jnp.sqrt(jnp.where(beyond, square, 1.0))
         back = back * jnp.where(beyond, 1 - band / length, 0.0)[:, None]
         back = back * jnp.sqrt(BACK_WEIGHT * valid_count / held.shape[0])
-        if not self.smooth_rows:
-            return e, back
         D = second_differences(self.n, self.closed, target.dtype)
-        return e, back, jnp.sqrt(smoothing / self.n) * (D @ P)
+        return e, back, args.root_smoothing / np.sqrt(self.n) * (D @ P)
 
     def residuals(self, y, args):
         """Residuals with the foot points found at `y` (for optimistix's solvers and the
@@ -206,7 +229,8 @@ class Objective(eqx.Module):
         """
         if feet is None:
             feet = self.feet(y, args)
-        target, weights, _, smoothing, _ = args
+        target, weights = args.target, args.weights
+        smoothing = args.root_smoothing**2
         tau, segment, fraction = feet
         _, A, V, banded = self.basis(y, args)
         P = y["control"]
@@ -255,7 +279,7 @@ class Objective(eqx.Module):
         back = jnp.einsum("kac,kc->ka", normal, held_at(held_rows) - foot)
         # Only the part beyond the chord's sagitta band counts (see `_band`): a scalar
         # residual `excess` along the unit direction of `back`.
-        band = self._band(target, segment)
+        band = self._band(target, segment, args.count)
         square = jnp.sum(back**2, -1)
         active = square > band**2
         length = jnp.sqrt(jnp.where(active, square, 1.0))
@@ -295,11 +319,10 @@ class Objective(eqx.Module):
             hessian = jnp.zeros((n * d, n * d), dtype)
             hessian = hessian.at[index[:, :, None], index[:, None, :]].add(blocks)
             gradient = jnp.zeros((n * d,), dtype).at[index].add(block_gradients)
-        if self.smooth_rows:
-            D = second_differences(n, self.closed, dtype)
-            loss += (smoothing / n) * jnp.sum((D @ P) ** 2)
-            gradient += (smoothing / n) * (D.T @ (D @ P)).reshape(-1)
-            hessian += (smoothing / n) * jnp.kron(D.T @ D, eye)
+        D = second_differences(n, self.closed, dtype)
+        loss += (smoothing / n) * jnp.sum((D @ P) ** 2)
+        gradient += (smoothing / n) * (D.T @ (D @ P)).reshape(-1)
+        hessian += (smoothing / n) * jnp.kron(D.T @ D, eye)
         if self.names:
             # Scheme-parameter columns by forward-mode autodiff (ravel_pytree puts the
             # "control" entries first), in Gauss-Newton form.
@@ -313,7 +336,7 @@ class Objective(eqx.Module):
             gradient = J.T @ residual
         return loss, gradient, hessian
 
-    def _band(self, target, segment):
+    def _band(self, target, segment, count):
         """Tolerance of the curve-to-target distances (`_curve.chord_band`).
 
         A smooth curve through the samples bulges from the chords between them;
@@ -325,7 +348,7 @@ class Objective(eqx.Module):
         beyond its band (measured: d(control points)/d(samples) of a cubic B-spline fit
         0.10 against -1.03 by finite differences).
         """
-        return chord_band(target, self.closed)[segment]
+        return chord_band(target, self.closed, count)[segment]
 
     def _line(self, tau, slope):
         """Which residuals are measured from the tangent line (else from a point), and the

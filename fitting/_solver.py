@@ -6,7 +6,7 @@ the curve is linear in the control points, so the problem can hand over its loss
 gradient and exact Hessian, assembled in closed form (`Objective.quadratic_model`), and a
 step is one small Cholesky solve.
 The solver is an ordinary optimistix least-squares solver, so `optimistix.least_squares`
-runs it: `max_steps`, `throw`, the result codes and the implicit adjoint work unchanged.
+runs it: `throw`, the result codes and the implicit adjoint work unchanged.
 
 When the damped matrix is not positive definite (the exact Hessian is indefinite away
 from a minimum), the damping is raised tenfold until it is, within the step, before the
@@ -23,8 +23,12 @@ It stops (successfully) when two accepted steps in a row each lower the loss by 
 `rtol * loss + atol` (one such step may be a heavily damped one far from a minimum), or
 when the loss is below `atol`; it reports
 `nonlinear_divergence` when no step can lower the loss although the gradient does not
-vanish. Step 0 only evaluates the model at
-the starting point (so `num_steps` counts it).
+vanish, and `nonlinear_max_steps_reached` after `max_steps` steps. Step 0 only evaluates
+the model at the starting point (so `num_steps` counts it).
+
+`rtol`, `atol` and `max_steps` are array fields, traced like the data: new values reuse
+the compiled program. (optimistix's own step limit must be a Python integer, a static
+value; run this solver with `optimistix.least_squares(..., max_steps=None)`.)
 """
 
 from collections.abc import Callable
@@ -63,8 +67,9 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     itself is only used by optimistix for the implicit adjoint.
     """
 
-    rtol: float
-    atol: float
+    rtol: Float[Array, ""]
+    atol: Float[Array, ""]
+    max_steps: Int[Array, ""]
     model: Callable = eqx.field(static=True)
     hint: Callable | None = eqx.field(static=True, default=None)
     verbose: Callable | None = eqx.field(static=True, default=None)
@@ -152,6 +157,7 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         # precision only if the gradient vanishes too; otherwise the model and the loss
         # disagree (e.g. from a start far outside the data) and the fit has failed.
         stuck = ~accept & (damping > 1e16)
+        out_of_steps = state.num_steps + 1 >= self.max_steps
         flat_gradient = jnp.max(jnp.abs(g)) <= 1e-6 * jnp.maximum(1.0, jnp.sqrt(state.loss))
         if callable(self.verbose):
             self.verbose(num_steps=("Step", state.num_steps),
@@ -166,10 +172,15 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
             growth=growth,
             num_steps=state.num_steps + 1,
             small=jnp.where(accept, small, state.small),
-            terminate=done | stuck,
+            terminate=done | stuck | out_of_steps,
             result=optx.RESULTS.where(
-                stuck & ~flat_gradient, optx.RESULTS.nonlinear_divergence,
-                optx.RESULTS.successful,
+                stuck & ~flat_gradient,
+                optx.RESULTS.nonlinear_divergence,
+                optx.RESULTS.where(
+                    ~(done | stuck) & out_of_steps,
+                    optx.RESULTS.nonlinear_max_steps_reached,
+                    optx.RESULTS.successful,
+                ),
             ),
         )
         return jax.tree.map(keep, trial, y), new_state, None
