@@ -125,9 +125,11 @@ def _source(args) -> str:
 
 
 def _check_output(path, suffixes, what: str) -> None:
-    """Fail before the work, not after it, on an output that cannot be written."""
+    """Fail before the work, not after it, on an output that cannot be written.
+    `suffixes` may be a function that returns them (called only for a given path)."""
     if path is None:
         return
+    suffixes = suffixes() if callable(suffixes) else suffixes
     suffix = Path(path).suffix.lower().lstrip(".")
     if suffix not in suffixes:
         raise ValueError(
@@ -171,7 +173,7 @@ def _refine(args) -> int:
     js = _js()
     scheme = _scheme(args)
     _check_output(args.output, ("csv", "txt", "npy", "npz", "json", "svg"), "-o")
-    _check_output(args.plot, _picture_types(), "--plot")
+    _check_output(args.plot, _picture_types, "--plot")
     outlines = _read_inputs(args)
     refined = []
     for outline in outlines:
@@ -214,7 +216,30 @@ def _add_refine(sub):
 # ---------------------------------------------------------------------------- fit
 
 
-def _print_errors(result, size: float, elapsed: float, compiled: bool = True) -> None:
+_COMPILED = [0]  # XLA programs compiled (or loaded from the cache) in this process
+
+
+def _count_compilation(event: str, duration: float, **_) -> None:
+    if event == "/jax/core/compile/backend_compile_duration":
+        _COMPILED[0] += 1
+
+
+def _compilations():
+    """A function that returns how many XLA programs were compiled (or loaded from the
+    compilation cache) since this call, counted by JAX's monitoring events."""
+    import jax
+
+    if _count_compilation not in _LISTENING:
+        jax.monitoring.register_event_duration_secs_listener(_count_compilation)
+        _LISTENING.append(_count_compilation)
+    start = _COMPILED[0]
+    return lambda: _COMPILED[0] - start
+
+
+_LISTENING: list = []
+
+
+def _print_errors(result, size: float, elapsed: float, compiled: bool) -> None:
     rms, worst = float(result.rms), float(result.max_error)
     print(f"  status     {result.message.split('.')[0]}")
     print(f"  steps      {int(result.num_steps)}")
@@ -242,7 +267,7 @@ def _fit(args) -> int:
         raise ValueError(f"--max-steps must be at least 1, got {args.max_steps}")
     _check_output(args.output, ("json", "csv", "txt", "npy", "npz", "svg"), "-o")
     _check_output(args.svg, ("svg",), "--svg")
-    _check_output(args.plot, _picture_types(), "--plot")
+    _check_output(args.plot, _picture_types, "--plot")
     outlines = _read_inputs(args, shape_samples=_SHAPE_SAMPLES)
     count = len(outlines)
     if args.output and args.output.lower().endswith(".npy") and count > 1:
@@ -264,6 +289,8 @@ def _fit(args) -> int:
         + (" (scheme parameters fitted too)" if args.fit_params else "")
     )
     results, sizes = [], []
+    # Every contour padded to the longest one's sample count: one compiled program.
+    pad_to = max(len(outline.points) for outline in outlines)
     for i, outline in enumerate(outlines):
         boundary = args.boundary or ("closed" if outline.closed else "open")
         size = float(np.linalg.norm(np.ptp(outline.points, axis=0)))
@@ -272,18 +299,18 @@ def _fit(args) -> int:
             f"size {size:.3g}"
         )
         sys.stdout.flush()  # before the progress line on stderr
-        start = time.perf_counter()
+        start, compiles = time.perf_counter(), _compilations()
         result = fitting.fit(
             outline.points, scheme, args.n, levels=args.levels, boundary=boundary,
             fit_params=bool(args.fit_params), max_steps=args.max_steps,
-            progress=not args.quiet, on_failure="ignore",
+            progress=False if args.quiet else "time", on_failure="ignore", pad_to=pad_to,
         )
         result = jax.block_until_ready(result)
         elapsed = time.perf_counter() - start
         if args.fit_params:
             print(f"  scheme     {_scheme_text(args.scheme, result.scheme)}")
-        # The first fit compiles; later contours with as many samples reuse it.
-        _print_errors(result, size, elapsed, compiled=i == 0)
+        # Contours whose sample counts share a bucket reuse the first one's program.
+        _print_errors(result, size, elapsed, compiles() > 0)
         results.append(result)
         sizes.append(size)
 
@@ -555,7 +582,7 @@ def _demo(args) -> int:
 
     if args.samples < 4 * args.n:
         raise ValueError(f"--samples must be at least 4 x --n = {4 * args.n}")
-    _check_output(args.output, _picture_types(), "-o")
+    _check_output(args.output, _picture_types, "-o")
     outlines = js.io.read_outlines(text=args.text, font="DejaVu Sans", samples=args.samples)
     # A glyph with holes has several contours: fit the outer one (the largest).
     target = max((o.points for o in outlines), key=lambda p: np.ptp(p, axis=0).prod())
@@ -564,10 +591,12 @@ def _demo(args) -> int:
         f"fitting a closed cubic B-spline with {args.n} control points to the outline of "
         f"{args.text!r} (DejaVu Sans, {len(target)} samples, size {size:.3g})"
     )
-    start = time.perf_counter()
-    result = fitting.fit(target, js.CubicBSpline(), args.n, on_failure="ignore")
+    sys.stdout.flush()  # before the progress lines on stderr
+    start, compiles = time.perf_counter(), _compilations()
+    result = fitting.fit(target, js.CubicBSpline(), args.n, on_failure="ignore",
+                         progress=False if args.quiet else "time")
     rms, worst = float(result.rms), float(result.max_error)
-    _print_errors(result, size, time.perf_counter() - start)
+    _print_errors(result, size, time.perf_counter() - start, compiles() > 0)
 
     figure = _new_figure((5.5, 6))
     artists = plot_fit(result, target, figure.add_subplot())
@@ -589,6 +618,8 @@ def _add_demo(sub):
     demo.add_argument("--n", type=int, default=32, help="control points (default: 32)")
     demo.add_argument("--samples", type=int, default=400, help="outline samples (default: 400)")
     demo.add_argument("--output", "-o", default="demo.png", help="PNG to write (default: demo.png)")
+    demo.add_argument("--quiet", "-q", action="store_true",
+                      help="no progress display on stderr while fitting")
     demo.set_defaults(run=_demo)
 
 
@@ -617,7 +648,12 @@ def _parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="jaxsubdiv",
         description="Differentiable subdivision curves: refine, fit, analyze, draw.",
+        epilog="Compiled programs are kept on disk (JAX's persistent compilation cache, in "
+        "~/.cache/jaxsubdiv/xla or $XDG_CACHE_HOME/jaxsubdiv/xla), so later runs start "
+        "faster; set JAXSUBDIV_COMPILATION_CACHE to another folder, or to 'off'.",
     )
+    parser.add_argument("--no-compilation-cache", action="store_true",
+                        help="do not read or write the compilation cache in this run")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for add in _COMMANDS:
         add(sub)
@@ -635,6 +671,8 @@ def main(argv=None) -> int:
     # leaves JAX's global configuration alone).
     jax.config.update("jax_enable_x64", True)
     try:
+        if not args.no_compilation_cache:
+            _enable_cache(args.command)
         return args.run(args)
     except (ValueError, TypeError, OSError) as e:
         message = " ".join(str(e).split())  # always one line
@@ -643,6 +681,17 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print(f"jaxsubdiv {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+def _enable_cache(command: str) -> None:
+    """The persistent compilation cache, or one line on stderr saying why not."""
+    from ._cache import enable_compilation_cache
+
+    try:
+        enable_compilation_cache()
+    except OSError as e:
+        message = " ".join(str(e).split())
+        print(f"jaxsubdiv {command}: warning: {message}; running without it", file=sys.stderr)
 
 
 if __name__ == "__main__":
