@@ -1,5 +1,8 @@
+import atexit
 import gc
 import os
+import shutil
+import tempfile
 
 import jax
 import pytest
@@ -9,6 +12,12 @@ import pytest
 jax.config.update("jax_enable_x64", True)
 # No display is needed anywhere in the test suite.
 os.environ.setdefault("MPLBACKEND", "Agg")
+# The `jaxsubdiv` command keeps compiled programs in a persistent cache: in the tests, a
+# fresh folder of this run's own (never the user's cache, whose contents would make
+# results and timings depend on earlier runs), shared by the command's subprocesses.
+_CACHE = tempfile.mkdtemp(prefix="jaxsubdiv-test-cache-")
+atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
+os.environ["JAXSUBDIV_COMPILATION_CACHE"] = _CACHE
 
 
 def _mappings() -> int:
@@ -30,3 +39,24 @@ def _release_compiled_programs():
     if _mappings() > 30_000:
         jax.clear_caches()
         gc.collect()
+
+
+# How much of the suite's time goes to compiling: JAX's monitoring events, summed and
+# reported at the end of the run (`-p no:terminal` silences it with the rest).
+_COMPILATIONS = {"count": 0, "seconds": 0.0}
+
+
+def _count_compilation(event, seconds, **_):
+    if event == "/jax/core/compile/backend_compile_duration":
+        _COMPILATIONS["count"] += 1
+        _COMPILATIONS["seconds"] += seconds
+
+
+jax.monitoring.register_event_duration_secs_listener(_count_compilation)
+
+
+def pytest_terminal_summary(terminalreporter):
+    terminalreporter.write_line(
+        f"XLA compilations in this process: {_COMPILATIONS['count']} "
+        f"({_COMPILATIONS['seconds']:.0f} s)"
+    )

@@ -245,3 +245,33 @@ def bezier_evaluate(segment, u):
     while points.shape[1] > 1:
         points = (1 - u) * points[:, :-1] + u * points[:, 1:]
     return points[:, 0]
+
+
+class CompileCounter:
+    """Counts XLA compilations (JAX's `backend_compile_duration` monitoring events, one
+    per program compiled or loaded from the persistent cache) while active:
+
+        with CompileCounter() as compiled:
+            ...
+        assert compiled.count == 0
+    """
+
+    EVENT = "/jax/core/compile/backend_compile_duration"
+
+    def __init__(self):
+        self.count = 0
+
+    def _listen(self, event, duration, **_):
+        if event == self.EVENT:
+            self.count += 1
+
+    def __enter__(self):
+        import jax
+
+        jax.monitoring.register_event_duration_secs_listener(self._listen)
+        return self
+
+    def __exit__(self, *exc):
+        import jax
+
+        jax.monitoring.unregister_event_duration_listener(self._listen)

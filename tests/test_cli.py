@@ -99,7 +99,9 @@ def test_fit_circle_from_csv_with_the_installed_script(tmp_path):
     result = run("fit", source, "--scheme", "chaikin", "--n", 16, "-o", out, "--svg", svg,
                  "--plot", png)
     assert result.returncode == 0, result.stderr
-    assert "fitting: step" in result.stderr  # the progress display
+    # The progress display: a first-use note, then the elapsed time.
+    assert "preparing the fit for 256 samples" in result.stderr
+    assert re.search(r"fitting: +[0-9.]+ s, done", result.stderr)
     assert "contour 1 of 1: 200 samples, closed" in result.stdout
     assert "status     converged" in result.stdout
     saved = json.loads(out.read_text())
@@ -449,3 +451,24 @@ def test_bad_input_from_the_installed_script(tmp_path):
     assert result.returncode == 2
     assert result.stderr == f"jaxsubdiv fit: error: {tmp_path / 'missing.csv'}: no such file.\n"
     assert result.stdout == ""
+
+
+def test_contours_of_different_lengths_share_one_compiled_fit(capsys, tmp_path):
+    """Two closed contours of 300 and 517 samples: the second reuses the first one's
+    program (both padded to the longer one's bucket), so only the first line says
+    "including compilation"; the fits are those of each contour alone (same errors)."""
+    outlines = [_circle(300).tolist(), (0.5 * _circle(517, center=(5.0, 1.0))).tolist()]
+    source = tmp_path / "two.json"
+    source.write_text(json.dumps({"outlines": [{"points": p, "closed": True}
+                                               for p in outlines]}))
+    status, out, err = cli(capsys, "fit", source, "--n", 12, "--quiet")
+    assert status == 0, err
+    times = re.findall(r"time +[0-9.]+ s(.*)", out)
+    assert times == [" (including compilation)", ""]
+    rms = lambda text: re.findall(r"rms error  (\S+)", text)
+    for k, points in enumerate(outlines):
+        single = tmp_path / f"{k}.csv"
+        single.write_text("".join(f"{x!r},{y!r}\n" for x, y in points))
+        status, alone, err = cli(capsys, "fit", single, "--n", 12, "--quiet")
+        assert status == 0, err
+        assert rms(alone) == [rms(out)[k]]

@@ -1,0 +1,133 @@
+"""What a user meets first: `import jaxsubdiv` and `jaxsubdiv --help` without JAX, and
+the persistent compilation cache the command keeps (each case in a fresh process)."""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+import jaxsubdiv as js
+
+
+def _python(code, env=None, timeout=600):
+    """Run `code` in a fresh interpreter; its stdout's last line, parsed as JSON."""
+    result = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True,
+                            text=True, timeout=timeout, env={**os.environ, **(env or {})})
+    assert result.returncode == 0, result.stderr
+    return json.loads(result.stdout.strip().splitlines()[-1]), result
+
+
+HEAVY = ("jax", "jaxlib", "equinox", "optimistix", "lineax", "matplotlib", "fitting", "numpy")
+
+
+def test_import_loads_no_heavy_module():
+    loaded, _ = _python(f"""
+        import json, sys
+        import jaxsubdiv
+        print(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))
+    """)
+    assert loaded == []
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["fit", "--help"], ["fit", "--n", "many"],
+                                  ["refine", "--scheme", "nope"], []])
+def test_help_and_usage_errors_answer_without_jax(argv):
+    """`--help` exits 0 and a usage error exits 2 with one line, before JAX is imported."""
+    (code, loaded), result = _python(f"""
+        import json, sys
+        from jaxsubdiv._cli import main
+        try:
+            code = main({argv!r})
+        except SystemExit as e:
+            code = e.code
+        print()
+        print(json.dumps([code, [m for m in {HEAVY!r} if m in sys.modules]]))
+    """)
+    assert loaded == []
+    if argv and argv[-1] == "--help":
+        assert code == 0 and "usage: jaxsubdiv" in result.stdout
+    else:
+        assert code == 2
+        (line,) = result.stderr.strip().splitlines()[-1:]
+        assert line.startswith("jaxsubdiv") and "error" in line
+
+
+def test_public_names_resolve_lazily():
+    """Every advertised name resolves, and an unknown one is an AttributeError."""
+    for name in js.__all__:
+        assert getattr(js, name) is not None
+    assert set(js.__all__) <= set(dir(js))
+    assert js.__version__
+    with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
+        js.nonsense  # noqa: B018
+
+
+# A fit through the command in a fresh process, reporting the compilations it made and
+# how many programs came from the persistent cache (JAX's monitoring events).
+_FIT_COUNTING = """
+    import json, sys
+    import jax
+    counts = {"compiled": 0, "hits": 0}
+    def duration(event, seconds, **_):
+        if event == "/jax/core/compile/backend_compile_duration":
+            counts["compiled"] += 1
+    def event(name, **_):
+        if name == "/jax/compilation_cache/cache_hits":
+            counts["hits"] += 1
+    jax.monitoring.register_event_duration_secs_listener(duration)
+    jax.monitoring.register_event_listener(event)
+    from jaxsubdiv._cli import main
+    status = main(ARGS)
+    print()
+    print(json.dumps([status, counts["compiled"], counts["hits"]]))
+"""
+
+
+def _fit_in_new_process(cache, args):
+    code = _FIT_COUNTING.replace("ARGS", repr(args))
+    return _python(code, env={"JAXSUBDIV_COMPILATION_CACHE": str(cache)})
+
+
+def test_second_process_loads_every_program_from_the_cache(tmp_path):
+    """Run 1 fills a fresh cache folder (some small program may already be read back
+    from it within the run, when it is compiled twice); run 2 of the same fit loads
+    every program it needs from it (hits = programs), and answers the same."""
+    cache = tmp_path / "cache"
+    args = ["fit", "--shape", "star", "--n", "12", "--samples", "150", "-q"]
+    (status, compiled, hits), first = _fit_in_new_process(cache, args)
+    assert status == 0 and compiled > hits
+    assert any(p.name.startswith("jit__fit_one") for p in cache.iterdir())
+    (status, compiled_again, hits), second = _fit_in_new_process(cache, args)
+    assert status == 0
+    assert hits == compiled_again == compiled
+    assert second.stdout.split("time")[0] == first.stdout.split("time")[0]
+
+
+def test_cache_can_be_switched_off_and_a_bad_folder_is_a_warning(tmp_path):
+    args = ["fit", "--shape", "star", "--n", "12", "--samples", "150", "-q"]
+    off = tmp_path / "unused"
+    (status, _, hits), _ = _python(_FIT_COUNTING.replace("ARGS", repr(args)),
+                                   env={"JAXSUBDIV_COMPILATION_CACHE": "off"})
+    assert status == 0 and hits == 0 and not off.exists()
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    (status, _, _), result = _fit_in_new_process(blocker / "cache", args)
+    assert status == 0
+    assert "warning: compilation cache: cannot create the folder" in result.stderr
+    assert "JAXSUBDIV_COMPILATION_CACHE" in result.stderr
+
+
+def test_cache_folder_default_and_arguments(tmp_path, monkeypatch):
+    from jaxsubdiv._cache import compilation_cache_dir
+
+    monkeypatch.delenv("JAXSUBDIV_COMPILATION_CACHE", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert compilation_cache_dir() == tmp_path / "jaxsubdiv" / "xla"
+    monkeypatch.setenv("JAXSUBDIV_COMPILATION_CACHE", "OFF")
+    assert compilation_cache_dir() is None and js.enable_compilation_cache() is None
+    for bad in (0, -1, 1.5, True):
+        with pytest.raises(ValueError, match="max_size"):
+            js.enable_compilation_cache(tmp_path, max_size=bad)
