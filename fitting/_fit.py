@@ -17,7 +17,7 @@ import jaxsubdiv as js
 from jaxsubdiv._misc import as_float_array, is_traced, static_int
 from jaxsubdiv._refine import _min_points
 
-from . import _progress
+from . import _exported, _progress
 from ._curve import curve_samples, distances, evaluate, locate, safe_norm
 from ._init import initial_control, order_samples
 from ._objective import BACK_WEIGHT as BACK_WEIGHT, FitData, Objective
@@ -215,6 +215,17 @@ def _numbers(smoothing, tol, max_steps, dtype, own_solver: bool):
     xp = jnp if is_traced(smoothing) or is_traced(tol) else np
     steps = np.int32(max_steps) if own_solver else max_steps
     return xp.sqrt(xp.asarray(smoothing, dtype)), xp.asarray(tol, dtype), steps
+
+
+def _result_structure(scheme, boundary: str, levels: int):
+    """The pytree structure of `_fit_one`'s `FitResult` (the fitted scheme has the
+    structure of the given one)."""
+    blank = dict.fromkeys(
+        ("control_points", "curve", "rms", "max_error", "rms_target_to_curve",
+         "max_target_to_curve", "rms_curve_to_target", "max_curve_to_target", "num_steps",
+         "status", "newton_step"), 0.0)
+    return jax.tree.structure(FitResult(scheme=scheme, boundary=boundary, levels=levels,
+                                        **blank))
 
 
 def _program_key(target, size: int, scheme, init, static) -> tuple:
@@ -688,12 +699,19 @@ def fit(
     if progress:
         _progress.compiling(_program_key(target, size, scheme, init, static), size)
     padded, weights = _pad(target, weights, size)
+    args = (padded, weights, np.int32(m), scheme, init,
+            _numbers(smoothing, tol, max_steps, target.dtype, solver is None))
+    # With the persistent compilation cache on, a concrete call with the default solver
+    # runs a program exported to disk: a new process then skips tracing and lowering.
+    exported = (solver is None and not steps and _exported.folder() is not None
+                and not any(is_traced(x) for x in jax.tree.leaves(args)))
     clock = _progress.elapsed() if progress == "time" else contextlib.nullcontext()
     with clock:
-        result = _fit_jit(
-            padded, weights, np.int32(m), scheme, init,
-            _numbers(smoothing, tol, max_steps, target.dtype, solver is None), **static,
-        )
+        if exported:
+            result = _exported.call(_fit_one, args, static,
+                                    _result_structure(scheme, boundary, levels))
+        else:
+            result = _fit_jit(*args, **static)
         if progress:
             jax.block_until_ready(result)
     if steps:

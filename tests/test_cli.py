@@ -35,9 +35,11 @@ def run(*args, timeout=600):
 
 
 def cli(capsys, *args):
-    """`main` in this process: (exit status, stdout, stderr)."""
+    """`main` in this process: (exit status, stdout, stderr). Without the persistent
+    compilation cache, which would stay switched on for the rest of the test process
+    (`test_startup.py` tests it in subprocesses)."""
     try:
-        status = main([str(a) for a in args])
+        status = main(["--no-compilation-cache", *(str(a) for a in args)])
     except SystemExit as e:  # argparse: usage errors and --help
         status = e.code
     out = capsys.readouterr()

@@ -794,3 +794,58 @@ def test_bucket_sizes():
     assert sorted(set(sizes))[:8] == [16, 24, 32, 48, 64, 96, 128, 192]
     assert all(m <= b < 1.5 * max(m, 11) for m, b in zip(range(1, 3000), sizes))
     assert [bucket(k, smallest=1) for k in range(1, 10)] == [1, 2, 3, 4, 6, 6, 8, 8, 12]
+
+
+@pytest.fixture
+def exported_programs(tmp_path):
+    """The persistent compilation cache's folder set to a fresh one, as
+    `jaxsubdiv.enable_compilation_cache` does, for this test only: `fit` then runs
+    exported programs (`fitting._exported`)."""
+    import fitting._exported as exported
+
+    previous = jax.config.jax_compilation_cache_dir
+    jax.config.update("jax_compilation_cache_dir", str(tmp_path))
+    exported._LOADED.clear()
+    yield tmp_path / "jaxsubdiv-exported"
+    jax.config.update("jax_compilation_cache_dir", previous)
+    exported._LOADED.clear()
+
+
+def test_exported_program_gives_the_jitted_fit_and_loads_without_tracing(exported_programs):
+    """A fit through the program exported to disk equals the jitted fit; a new process
+    (here: a cleared in-memory table) loads it without tracing the fit; a damaged file
+    is replaced; traced calls (under `jit`) keep the Python path."""
+    import fitting._exported as exported
+
+    samples = _bumpy(300, 0.2)
+    scheme = js.FourPoint(0.07)
+    jax.config.update("jax_compilation_cache_dir", None)
+    plain = fitting.fit(samples, scheme, 10, smoothing=1e-3)
+    jax.config.update("jax_compilation_cache_dir", str(exported_programs.parent))
+    first = fitting.fit(samples, scheme, 10, smoothing=1e-3)
+    (stored,) = exported_programs.iterdir()
+    for a, b in zip(jax.tree.leaves(first), jax.tree.leaves(plain)):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
+    assert first.boundary == plain.boundary and first.levels == plain.levels
+    assert float(first.scheme.w) == float(plain.scheme.w)
+
+    exported._LOADED.clear()
+    traces = []
+    listen = lambda event, seconds, **kw: traces.append(kw.get("fun_name")) if "trace" in event else None
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        again = fitting.fit(samples, js.FourPoint(0.08), 10, smoothing=1e-3)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    assert set(traces) <= {"call_exported"}  # JAX's small wrapper, not the fit
+    assert float(again.rms) < 1.5 * float(first.rms)
+
+    exported._LOADED.clear()
+    stored.write_bytes(b"not a program")
+    repaired = fitting.fit(samples, scheme, 10, smoothing=1e-3)
+    np.testing.assert_allclose(repaired.control_points, first.control_points, rtol=1e-12)
+    assert stored.stat().st_size > 1000
+
+    jitted = eqx.filter_jit(lambda t: fitting.fit(t, scheme, 10, smoothing=1e-3).rms)
+    np.testing.assert_allclose(jitted(samples), first.rms, rtol=1e-10)
+    assert len(list(exported_programs.iterdir())) == 1
