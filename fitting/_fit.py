@@ -180,17 +180,17 @@ def default_levels(n: int, m: int, hermite: bool) -> int:
 
 
 def bucket(m: int, smallest: int = 16) -> int:
-    """The sample count a fit's program is compiled for: the smallest of 16, 24, 32,
-    48, 64, 96, ... (powers of two and 1.5 times them, from `smallest`) that holds `m`
-    samples. (`fit_batch` buckets its item counts the same way, from 1.)
+    """The sample count a fit's program is compiled for: the smallest of 16, 20, 24,
+    28, 32, 40, 48, 56, 64, 80, ... (four steps per doubling, from `smallest`) that
+    holds `m` samples. (`fit_batch` buckets its item counts the same way, from 1.)
 
     Outlines are padded up to it (copies of the last sample with weight zero, which the
     fit ignores), so outlines of different lengths share one compiled program, at the
-    cost of up to half again as many samples in every solver step (400 samples: 512).
+    cost of up to a quarter more samples in every solver step (400 samples: 448).
     """
     size = smallest
-    while size < m:  # 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, ...
-        size = size + max(1, size // 2) if size & (size - 1) == 0 else size * 4 // 3
+    while size < m:
+        size += max(1, (1 << (size.bit_length() - 1)) // 4)
     return size
 
 
@@ -600,8 +600,8 @@ def fit(
 
     **Compilation.** The fit is one compiled program per shape and static setting:
     sample-count bucket (the `m` samples are padded with ignored copies to the next of
-    16, 24, 32, 48, 64, 96, ...: outlines of 400 and 500 samples share the program for
-    512), dimension, dtype, `n_control`, `levels`, `boundary`, the scheme's type,
+    16, 20, 24, 28, 32, 40, 48, ...: outlines of 400 and 440 samples share the program
+    for 448), dimension, dtype, `n_control`, `levels`, `boundary`, the scheme's type,
     `fit_params`, `solver` and whether `init` is given. Values are data: new samples,
     `weights`, `smoothing`, `tol`, `max_steps` (with the default solver) and scheme
     parameter values compile nothing. `jaxsubdiv.enable_compilation_cache()` keeps

@@ -102,7 +102,7 @@ def test_fit_circle_from_csv_with_the_installed_script(tmp_path):
                  "--plot", png)
     assert result.returncode == 0, result.stderr
     # The progress display: a first-use note, then the elapsed time.
-    assert "preparing the fit for 256 samples" in result.stderr
+    assert "preparing the fit for 224 samples" in result.stderr
     assert re.search(r"fitting: +[0-9.]+ s, done", result.stderr)
     assert "contour 1 of 1: 200 samples, closed" in result.stdout
     assert "status     converged" in result.stdout

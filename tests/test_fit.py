@@ -734,19 +734,19 @@ def _bumpy(m, phase=0.0):
 
 def test_new_values_and_lengths_in_one_bucket_compile_nothing():
     """After one fit, other outlines of other lengths in the same sample-count bucket
-    (400 and 450 samples pad to 512; 200 with `pad_to=500`), and new `tol`, `max_steps`,
+    (400 and 440 samples pad to 448; 200 with `pad_to=430`), and new `tol`, `max_steps`,
     `smoothing`, `weights` and four-point `w`, reuse the compiled program: no XLA
     compilation at all."""
     scheme = js.FourPoint(0.06)
     fitting.fit(_bumpy(400), scheme, 10, tol=1e-6, on_failure="ignore")
     with CompileCounter() as compiled:
         for m, options in [
-            (450, {}),
+            (440, {}),
             (401, dict(tol=3e-5)),
             (420, dict(max_steps=9)),
             (400, dict(smoothing=0.01)),
             (400, dict(weights=np.linspace(0.5, 2.0, 400))),
-            (200, dict(pad_to=500)),  # 200 alone would be the bucket 256
+            (200, dict(pad_to=430)),  # 200 alone would be the bucket 224
         ]:
             fitting.fit(_bumpy(m, 0.3), scheme, 10, on_failure="ignore", **options)
         fitting.fit(_bumpy(430), js.FourPoint(0.1), 10, on_failure="ignore")
@@ -791,9 +791,9 @@ def test_bucket_sizes():
     from fitting._fit import bucket
 
     sizes = [bucket(m) for m in range(1, 3000)]
-    assert sorted(set(sizes))[:8] == [16, 24, 32, 48, 64, 96, 128, 192]
-    assert all(m <= b < 1.5 * max(m, 11) for m, b in zip(range(1, 3000), sizes))
-    assert [bucket(k, smallest=1) for k in range(1, 10)] == [1, 2, 3, 4, 6, 6, 8, 8, 12]
+    assert sorted(set(sizes))[:12] == [16, 20, 24, 28, 32, 40, 48, 56, 64, 80, 96, 112]
+    assert all(m <= b <= 1.25 * max(m, 13) for m, b in zip(range(1, 3000), sizes))
+    assert [bucket(k, smallest=1) for k in range(1, 12)] == [1, 2, 3, 4, 5, 6, 7, 8, 10, 10, 12]
 
 
 @pytest.fixture
