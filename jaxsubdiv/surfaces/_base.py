@@ -170,6 +170,14 @@ def antisymmetric_subspace(perm: np.ndarray) -> np.ndarray:
     return basis
 
 
+#: How much larger the tangent eigenvalues must be than all others for an exact tangent
+#: plane. Well above LAPACK's accuracy for repeated eigenvalues, which is about the square
+#: root of machine epsilon (a Loop boundary sector of 6 triangles has a defective double
+#: eigenvalue 1/2 that one build returned split by 1.7e-9, which a margin of 1e-9 then
+#: called dominant): doubtful cases are called approximate, never the other way round.
+DOMINANCE_MARGIN = 1e-6
+
+
 def dominant(matrix: np.ndarray, basis: np.ndarray, skip: int = 0) -> tuple[float, np.ndarray]:
     """The `skip`-th largest eigenvalue of `matrix.T` on the invariant subspace spanned
     by `basis`, and its (left) eigenvector."""
@@ -196,7 +204,7 @@ def dart_masks(matrix: np.ndarray, perm: np.ndarray):
     rest = list(np.linalg.eigvals(matrix))
     for target in (1.0, lam_s, lam_a):
         rest.pop(int(np.argmin(np.abs(np.array(rest) - target))))
-    exact = max((abs(x) for x in rest), default=0.0) < min(lam_s, lam_a) - 1e-9
+    exact = max((abs(x) for x in rest), default=0.0) < min(lam_s, lam_a) - DOMINANCE_MARGIN
     along = along / np.abs(along).max() * np.sign(along[1] - along[0])
     across = across / np.abs(across).max() * np.sign(across[2])
     return position / position.sum(), along, across, exact
@@ -225,7 +233,7 @@ def cross_tangent(matrix: np.ndarray, perm: np.ndarray, interior: np.ndarray):
     for target in (1.0, 0.5, lam):
         rest.pop(int(np.argmin(np.abs(np.array(rest) - target))))
     largest = max((abs(x) for x in rest), default=0.0)
-    exact = bool(len(interior)) and largest < min(0.5, lam) - 1e-9
+    exact = bool(len(interior)) and largest < min(0.5, lam) - DOMINANCE_MARGIN
     mask = mask / np.abs(mask).max()
     if mask[interior].sum() < 0:
         mask = -mask
