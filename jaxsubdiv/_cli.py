@@ -216,36 +216,52 @@ def _add_refine(sub):
 # ---------------------------------------------------------------------------- fit
 
 
-_COMPILED = [0]  # XLA programs compiled (or loaded from the cache) in this process
+# XLA programs compiled or loaded from the persistent cache in this process, and the
+# latter alone (JAX's monitoring events).
+_COMPILED = {"programs": 0, "from_cache": 0}
 
 
 def _count_compilation(event: str, duration: float, **_) -> None:
     if event == "/jax/core/compile/backend_compile_duration":
-        _COMPILED[0] += 1
+        _COMPILED["programs"] += 1
+
+
+def _count_cache_hit(event: str, **_) -> None:
+    if event == "/jax/compilation_cache/cache_hits":
+        _COMPILED["from_cache"] += 1
 
 
 def _compilations():
-    """A function that returns how many XLA programs were compiled (or loaded from the
-    compilation cache) since this call, counted by JAX's monitoring events."""
+    """A function that says what preparing programs took since this call: "" (nothing),
+    "compilation", or "loading compiled programs" (all from the cache)."""
     import jax
 
-    if _count_compilation not in _LISTENING:
+    if not _LISTENING:
         jax.monitoring.register_event_duration_secs_listener(_count_compilation)
-        _LISTENING.append(_count_compilation)
-    start = _COMPILED[0]
-    return lambda: _COMPILED[0] - start
+        jax.monitoring.register_event_listener(_count_cache_hit)
+        _LISTENING.append(True)
+    start = dict(_COMPILED)
+
+    def since():
+        programs = _COMPILED["programs"] - start["programs"]
+        loaded = _COMPILED["from_cache"] - start["from_cache"]
+        if programs == 0:
+            return ""
+        return "loading compiled programs" if loaded == programs else "compilation"
+
+    return since
 
 
 _LISTENING: list = []
 
 
-def _print_errors(result, size: float, elapsed: float, compiled: bool) -> None:
+def _print_errors(result, size: float, elapsed: float, preparing: str) -> None:
     rms, worst = float(result.rms), float(result.max_error)
     print(f"  status     {result.message.split('.')[0]}")
     print(f"  steps      {int(result.num_steps)}")
     print(f"  rms error  {rms:.3g} ({rms / size:.2e} of the size; two-sided)")
     print(f"  max error  {worst:.3g} ({worst / size:.2e} of the size; two-sided)")
-    print(f"  time       {elapsed:.2f} s" + (" (including compilation)" if compiled else ""))
+    print(f"  time       {elapsed:.2f} s" + (f" (including {preparing})" if preparing else ""))
 
 
 def _fit(args) -> int:
@@ -310,7 +326,7 @@ def _fit(args) -> int:
         if args.fit_params:
             print(f"  scheme     {_scheme_text(args.scheme, result.scheme)}")
         # Contours whose sample counts share a bucket reuse the first one's program.
-        _print_errors(result, size, elapsed, compiles() > 0)
+        _print_errors(result, size, elapsed, compiles())
         results.append(result)
         sizes.append(size)
 
@@ -596,7 +612,7 @@ def _demo(args) -> int:
     result = fitting.fit(target, js.CubicBSpline(), args.n, on_failure="ignore",
                          progress=False if args.quiet else "time")
     rms, worst = float(result.rms), float(result.max_error)
-    _print_errors(result, size, time.perf_counter() - start, compiles() > 0)
+    _print_errors(result, size, time.perf_counter() - start, compiles())
 
     figure = _new_figure((5.5, 6))
     artists = plot_fit(result, target, figure.add_subplot())
