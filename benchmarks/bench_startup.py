@@ -201,6 +201,10 @@ def measure(runner: Runner, name: str, condition: str, repeat: int) -> dict:
     code, arguments, accepted, _, monitor = SCENARIOS[name]
     warm = runner.fresh_cache() if condition == "warm" else None
     populate = runner.run(code, arguments, warm) if warm else None
+    # What one run of the command leaves in the cache folder (bytes; exported fits apart).
+    files = [f for f in warm.rglob("*") if f.is_file()] if warm else []
+    cache_bytes = sum(f.stat().st_size for f in files)
+    exported_bytes = sum(f.stat().st_size for f in files if f.suffix == ".jaxexport")
     runs = []
     for _ in range(repeat):
         cache = warm or runner.fresh_cache()
@@ -227,6 +231,8 @@ def measure(runner: Runner, name: str, condition: str, repeat: int) -> dict:
         "ok": not unexpected and probe["exit_code"] in accepted,
         "failure": unexpected[0]["stderr"][-2000:] if unexpected else None,
         "runs": [{k: r[k] for k in ("wall_s", "cpu_s", "exit_code")} for r in runs],
+        "cache_bytes": cache_bytes if warm else None,
+        "exported_bytes": exported_bytes if warm else None,
         "populate_run": {k: populate[k] for k in ("wall_s", "cpu_s", "exit_code")}
         if populate else None,
         "probe": probe,
@@ -280,6 +286,10 @@ def markdown(report: dict) -> str:
             f"| {r['min_wall_s']:.2f}-{r['max_wall_s']:.2f} | {r['median_cpu_s']:.2f} "
             f"| {exits} | " + " | ".join(counts) + " |"
         )
+        if r.get("cache_bytes"):
+            notes.append(f"- `{r['scenario']}` leaves {r['cache_bytes'] / 1e3:.0f} kB in the "
+                         f"cache folder, {r['exported_bytes'] / 1e3:.0f} kB of it exported "
+                         "fit programs.")
         if not r["ok"]:
             notes.append(f"- `{r['scenario']}` ({r['condition']}): unexpected exit code or "
                          f"probe failure; see the JSON for stderr.")

@@ -58,7 +58,9 @@ class FitData(NamedTuple):
     - `weights`: `(m,)`, zero for ignored samples and the padding.
     - `scheme`: the scheme at its starting parameters.
     - `root_smoothing`: the square root of the smoothing weight (the residual rows are
-      linear in it, so their derivatives stay finite at zero smoothing).
+      linear in it, so derivatives with respect to everything else stay finite at zero
+      smoothing; the derivative with respect to `smoothing` itself is infinite there,
+      as the square root's).
     - `basis`: `Objective.basis_of(scheme)` when no scheme parameter is fitted
       (computed once, outside the solver loop), else None.
     - `count`: the number of samples before padding.

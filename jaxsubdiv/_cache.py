@@ -44,8 +44,8 @@ def enable_compilation_cache(
 
     - `path`: the folder; default [`jaxsubdiv.compilation_cache_dir`][] (which honours
       `$JAXSUBDIV_COMPILATION_CACHE`). Created if missing.
-    - `max_size`: bytes; beyond it JAX deletes the least recently used programs. A fit
-      program takes about 1-5 MB (measured in `benchmarks/bench_startup.py`).
+    - `max_size`: bytes; beyond it JAX deletes the least recently used programs. One
+      `jaxsubdiv fit` of a glyph leaves about 0.4 MB (`benchmarks/bench_startup.py`).
 
     **Returns:** the folder in use, or None when the cache is switched off through the
     environment variable.
