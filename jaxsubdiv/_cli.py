@@ -3,10 +3,12 @@
 Every subcommand is added to the parser by an `_add_<name>(subparsers)` function listed
 in `_COMMANDS`, and runs as `args.run(args)`, returning the exit status. Usage errors and
 bad input (`ValueError`, `TypeError`, `OSError`, including `jaxsubdiv.io.OutlineError`)
-are one line on stderr and exit status 2; nothing prints a traceback for them.
+are one line on stderr and exit status 2; any other exception is one line and status 3
+(`_report`). Nothing prints a traceback unless JAXSUBDIV_TRACEBACK=1.
 """
 
 import argparse
+import os
 import shlex
 import sys
 import time
@@ -70,6 +72,12 @@ def _add_scheme_options(parser, default):
     parser.add_argument("--w", type=float, help="four-point tension w (default 1/16)")
     parser.add_argument("--t", type=float, help="split-tweak parameter t (default 1/2)")
     parser.add_argument("--degree", type=int, help="Lane-Riesenfeld degree (default 3)")
+
+
+def _add_force_option(parser):
+    parser.add_argument("--force", action="store_true",
+                        help="allow an output to replace the input file, or two outputs "
+                        "to share a name (refused otherwise)")
 
 
 def _add_input_options(parser, shape_samples: str):
@@ -155,6 +163,43 @@ def _numbered(path: str, index: int, count: int) -> str:
     return str(p.with_name(f"{p.stem}-{index + 1}{p.suffix}"))
 
 
+def _check_no_overwrite(args, outputs) -> None:
+    """Refuse, before any work, to write over the input file or to write two outputs
+    to one file (the first would be lost without a word), unless `--force`.
+
+    `outputs`: (option, path) pairs of every file the command will write, with the
+    numbered names of per-contour files already applied."""
+    if args.force:
+        return
+    def same(a, b) -> bool:
+        a, b = Path(a), Path(b)
+        try:
+            if a.exists() and b.exists():
+                return a.samefile(b)
+        except OSError:
+            pass
+        return a.resolve() == b.resolve()
+
+    source = getattr(args, "input", None)
+    for i, (option, path) in enumerate(outputs):
+        if source is not None and same(path, source):
+            raise ValueError(
+                f"{option} {path} is the input file: writing it would replace the input; "
+                "choose another output name, or add --force to overwrite it"
+            )
+        for other_option, other in outputs[:i]:
+            if same(path, other):
+                raise ValueError(
+                    f"{other_option} and {option} both write {path}, and the second would "
+                    "replace the first; give them different names, or add --force"
+                )
+
+
+def _no_contours(args, outlines) -> None:
+    if not outlines:
+        raise ValueError(f"{_source(args)}: no contours to work on (nothing was drawn)")
+
+
 def _new_figure(figsize):
     import matplotlib
 
@@ -175,6 +220,9 @@ def _refine(args) -> int:
     _check_output(args.output, ("csv", "txt", "npy", "npz", "json", "svg"), "-o")
     _check_output(args.plot, _picture_types, "--plot")
     outlines = _read_inputs(args)
+    _no_contours(args, outlines)
+    _check_no_overwrite(args, [(o, p) for o, p in (("-o", args.output), ("--plot", args.plot))
+                               if p])
     refined = []
     for outline in outlines:
         boundary = args.boundary or ("closed" if outline.closed else "open")
@@ -210,6 +258,7 @@ def _add_refine(sub):
                         help="default: closed for closed outlines, open otherwise")
     refine.add_argument("--output", "-o", help="file for the refined points (format by suffix)")
     refine.add_argument("--plot", help="PNG of the polygon and the refined curve")
+    _add_force_option(refine)
     refine.set_defaults(run=_refine)
 
 
@@ -285,7 +334,18 @@ def _fit(args) -> int:
     _check_output(args.svg, ("svg",), "--svg")
     _check_output(args.plot, _picture_types, "--plot")
     outlines = _read_inputs(args, shape_samples=_SHAPE_SAMPLES)
+    _no_contours(args, outlines)
     count = len(outlines)
+    outputs = []
+    if args.output:
+        per_contour = args.output.lower().endswith(".json")
+        outputs += [("-o", _numbered(args.output, i, count) if per_contour else args.output)
+                    for i in range(count if per_contour else 1)]
+    if args.svg:
+        outputs += [("--svg", _numbered(args.svg, i, count)) for i in range(count)]
+    if args.plot:
+        outputs.append(("--plot", args.plot))
+    _check_no_overwrite(args, outputs)
     if args.output and args.output.lower().endswith(".npy") and count > 1:
         raise ValueError(
             f"-o {args.output}: a .npy file holds one curve and the input has {count} "
@@ -423,6 +483,7 @@ def _add_fit(sub):
                      "their distance to the curve, control polygon, curve")
     fit.add_argument("--quiet", "-q", action="store_true",
                      help="no progress display on stderr while fitting")
+    _add_force_option(fit)
     fit.set_defaults(run=_fit)
 
 
@@ -690,13 +751,38 @@ def main(argv=None) -> int:
         if not args.no_compilation_cache:
             _enable_cache(args.command)
         return args.run(args)
-    except (ValueError, TypeError, OSError) as e:
-        message = " ".join(str(e).split())  # always one line
-        print(f"jaxsubdiv {args.command}: error: {message}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
         print(f"jaxsubdiv {args.command}: interrupted", file=sys.stderr)
         return 130
+    except Exception as e:
+        if os.environ.get("JAXSUBDIV_TRACEBACK", "") not in ("", "0"):
+            raise
+        return _report(args.command, e)
+
+
+def _report(command: str, error: Exception) -> int:
+    """One line on stderr for an error that stopped the command; its exit status.
+
+    Bad input (`ValueError`, `TypeError`, `OSError`, with `jaxsubdiv.io.OutlineError`
+    naming the file) is status 2, as are inputs too large to handle (`MemoryError`,
+    `OverflowError`, `RecursionError`: the readers and kernels bound what they accept,
+    so these are the last line of defence). Anything else is a defect of jaxsubdiv:
+    status 3, and the line says how to see the traceback."""
+    message = " ".join(str(error).split())  # always one line
+    if isinstance(error, (ValueError, TypeError, OSError)):
+        line, status = f"error: {message}", 2
+    elif isinstance(error, MemoryError):
+        line, status = ("error: not enough memory for this input; use fewer points "
+                        "(--samples, --levels, a smaller image)"), 2
+    elif isinstance(error, (OverflowError, RecursionError)):
+        line, status = (f"error: the input is too large or too deeply nested to handle "
+                        f"({type(error).__name__}: {message})"), 2
+    else:
+        line, status = (f"internal error ({type(error).__name__}: {message}); this is a bug "
+                        "in jaxsubdiv: please report it with the command line (set "
+                        "JAXSUBDIV_TRACEBACK=1 to see where it happened)"), 3
+    print(f"jaxsubdiv {command}: {line}", file=sys.stderr)
+    return status
 
 
 def _enable_cache(command: str) -> None:

@@ -474,3 +474,72 @@ def test_contours_of_different_lengths_share_one_compiled_fit(capsys, tmp_path):
         status, alone, err = cli(capsys, "fit", single, "--n", 12, "--quiet")
         assert status == 0, err
         assert rms(alone) == [rms(out)[k]]
+
+
+def test_an_output_never_replaces_the_input_or_another_output(capsys, tmp_path):
+    """`-o` equal to the input (also by another spelling of its path), or two outputs
+    to one file, are refused before any work and leave every file as it was; `--force`
+    allows them."""
+    source = tmp_path / "in.csv"
+    source.write_text("".join(f"{x}, {y}\n" for x, y in _circle(12)))
+    before = source.read_text()
+    other = tmp_path / "sub" / ".." / "in.csv"
+    (tmp_path / "sub").mkdir()
+    refused = [
+        (("refine", source, "-o", source), "-o", "is the input file"),
+        (("refine", source, "-o", other), "-o", "is the input file"),
+        (("fit", source, "--n", 4, "-o", source), "-o", "is the input file"),
+        (("fit", source, "--n", 4, "-o", tmp_path / "c.svg", "--svg", tmp_path / "c.svg"),
+         "-o and --svg", "both write"),
+        (("refine", source, "-o", tmp_path / "r.svg", "--plot", tmp_path / "r.svg"),
+         "-o and --plot", "both write"),
+        # Two contours: -o numbers its JSON files c-1.json, c-2.json; so does --svg.
+        (("fit", "--text", "o", "--n", 4, "-o", tmp_path / "c.svg",
+          "--svg", tmp_path / "c-svg.svg", "--plot", tmp_path / "c-svg-2.svg"),
+         "--svg and --plot", "both write"),
+    ]
+    for args, options, words in refused:
+        status, out, err = cli(capsys, *args)
+        assert status == 2 and options in err and words in err and "--force" in err, (args, err)
+        assert len(err.strip().splitlines()) == 1 and out == ""
+    assert source.read_text() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.csv", "sub"]
+    status, out, err = cli(capsys, "refine", source, "--levels", 1, "-o", source, "--force")
+    assert status == 0, err
+    assert len(_table(source)) == 24  # 12 points, one cubic B-spline level
+
+
+def test_an_input_without_contours_is_an_error(capsys, tmp_path, monkeypatch):
+    import jaxsubdiv.io
+
+    source = tmp_path / "in.csv"
+    source.write_text("0, 0\n1, 0\n1, 1\n")
+    # Whatever a reader returns: the command itself refuses an empty list.
+    monkeypatch.setattr(jaxsubdiv.io, "read_outlines", lambda *a, **k: [])
+    for command in ("refine", "fit"):
+        status, out, err = cli(capsys, command, source)
+        assert status == 2 and "no contours" in err and str(source) in err, err
+
+
+def test_a_defect_is_one_line_status_3_and_the_traceback_on_request(capsys, tmp_path, monkeypatch):
+    import jaxsubdiv.io
+
+    def broken(*args, **kwargs):
+        raise KeyError("a key nobody expected")
+
+    monkeypatch.setattr(jaxsubdiv.io, "read_outlines", broken)
+    source = tmp_path / "in.csv"
+    source.write_text("0, 0\n1, 0\n1, 1\n")
+    status, out, err = cli(capsys, "refine", source)
+    assert status == 3 and len(err.strip().splitlines()) == 1
+    assert "internal error (KeyError" in err and "bug" in err and "JAXSUBDIV_TRACEBACK" in err
+    for error, words in [(MemoryError(), "not enough memory"),
+                         (RecursionError("deep"), "too deeply nested")]:
+        monkeypatch.setattr(jaxsubdiv.io, "read_outlines",
+                            lambda *a, error=error, **k: (_ for _ in ()).throw(error))
+        status, out, err = cli(capsys, "refine", source)
+        assert status == 2 and words in err and len(err.strip().splitlines()) == 1, err
+    monkeypatch.setattr(jaxsubdiv.io, "read_outlines", broken)
+    monkeypatch.setenv("JAXSUBDIV_TRACEBACK", "1")
+    with pytest.raises(KeyError):
+        main(["--no-compilation-cache", "refine", str(source)])
