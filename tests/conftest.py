@@ -41,22 +41,50 @@ def _release_compiled_programs():
         gc.collect()
 
 
-# How much of the suite's time goes to compiling: JAX's monitoring events, summed and
-# reported at the end of the run (`-p no:terminal` silences it with the rest).
-_COMPILATIONS = {"count": 0, "seconds": 0.0}
+# How much of the suite's time goes to compiling: JAX's monitoring events, summed per test
+# and reported at the end of the run (`-p no:terminal` silences it with the rest), with
+# the tests that spend most on tracing, lowering and compiling: the candidates for
+# sharing programs through module-scoped fixtures.
+_EVENTS = {
+    "/jax/core/compile/jaxpr_trace_duration": "trace",
+    "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower",
+    "/jax/core/compile/backend_compile_duration": "compile",
+}
+_TOTALS = {"count": 0, "trace": 0.0, "lower": 0.0, "compile": 0.0}
+_PER_TEST: dict[str, dict[str, float]] = {}
 
 
-def _count_compilation(event, seconds, **_):
-    if event == "/jax/core/compile/backend_compile_duration":
-        _COMPILATIONS["count"] += 1
-        _COMPILATIONS["seconds"] += seconds
+def _record_event(event, seconds, **_):
+    kind = _EVENTS.get(event)
+    if kind is None:
+        return
+    _TOTALS[kind] += seconds
+    if kind == "compile":
+        _TOTALS["count"] += 1
 
 
-jax.monitoring.register_event_duration_secs_listener(_count_compilation)
+jax.monitoring.register_event_duration_secs_listener(_record_event)
+
+
+@pytest.fixture(autouse=True)
+def _compilation_time_per_test(request):
+    before = dict(_TOTALS)
+    yield
+    _PER_TEST[request.node.nodeid] = {k: _TOTALS[k] - before[k] for k in _TOTALS}
 
 
 def pytest_terminal_summary(terminalreporter):
     terminalreporter.write_line(
-        f"XLA compilations in this process: {_COMPILATIONS['count']} "
-        f"({_COMPILATIONS['seconds']:.0f} s)"
+        f"XLA compilations in this process: {_TOTALS['count']} "
+        f"({_TOTALS['compile']:.0f} s compiling, {_TOTALS['trace']:.0f} s tracing, "
+        f"{_TOTALS['lower']:.0f} s lowering; nested traces count in each enclosing one)"
     )
+    def cost(item):
+        return item[1]["trace"] + item[1]["lower"] + item[1]["compile"]
+    heaviest = sorted(_PER_TEST.items(), key=cost, reverse=True)[:15]
+    if heaviest and cost(heaviest[0]) > 0:
+        terminalreporter.write_line("tests that spend most on tracing, lowering, compiling:")
+        for nodeid, spent in heaviest:
+            terminalreporter.write_line(
+                f"  {cost((nodeid, spent)):6.1f} s  {int(spent['count']):4d} programs  {nodeid}"
+            )

@@ -767,10 +767,11 @@ def test_max_steps_is_honoured_as_data():
 @pytest.mark.parametrize("boundary", ["closed", "open"])
 @pytest.mark.parametrize("scheme", [js.CubicBSpline(), js.Chaikin()], ids=["hermite", "chords"])
 def test_padding_to_a_bucket_does_not_change_the_fit(monkeypatch, boundary, scheme):
-    """The same outline fitted padded (to the bucket of 330 samples, 384; and to 3x that)
-    and unpadded gives the same curve and errors: the padding's samples are ignored,
-    and a closed outline's seam (the closing chord after the padding) is searched as
-    without it."""
+    """The same outline fitted padded (to the bucket of 330 samples, 384; closed also to
+    3x that) and unpadded gives the same curve and errors: the padding's samples are
+    ignored, and a closed outline's seam (the closing chord after the padding) is
+    searched as without it. (An open outline has no seam: 3x would test nothing more and
+    compile one more program.)"""
     import fitting._fit as fit_module
 
     samples = _bumpy(330, 0.4)
@@ -783,9 +784,11 @@ def test_padding_to_a_bucket_does_not_change_the_fit(monkeypatch, boundary, sche
     bucket = fit_module.bucket
     monkeypatch.setattr(fit_module, "bucket", lambda m, smallest=16: m)
     exact = run()
-    monkeypatch.setattr(fit_module, "bucket", lambda m, smallest=16: 3 * bucket(m, smallest))
-    wide = run()
-    for other in (padded, wide):
+    others = [padded]
+    if boundary == "closed":
+        monkeypatch.setattr(fit_module, "bucket", lambda m, smallest=16: 3 * bucket(m, smallest))
+        others.append(run())
+    for other in others:
         assert bool(other.converged) == bool(exact.converged)
         np.testing.assert_allclose(other.curve, exact.curve, atol=1e-6)
         np.testing.assert_allclose(other.rms, exact.rms, rtol=1e-4)
