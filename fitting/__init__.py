@@ -5,10 +5,12 @@ outlines; one at a time or in batches; differentiably.
 """
 
 from ._fit import (
+    ORDER_SAMPLES_LIMIT as ORDER_SAMPLES_LIMIT,
     STATUSES as STATUSES,
     FitResult as FitResult,
     fit as fit,
     fit_batch as fit_batch,
+    fit_memory as fit_memory,
 )
 from ._init import order_samples as order_samples
 from ._progress import progress_verbose as progress_verbose

@@ -304,6 +304,16 @@ def _compilations():
 _LISTENING: list = []
 
 
+def _size(points) -> float:
+    """The diagonal of the bounding box, without overflow or underflow at any scale."""
+    import math
+
+    import numpy as np
+
+    with np.errstate(over="ignore"):
+        return math.hypot(*np.ptp(points, axis=0).tolist())
+
+
 def _print_errors(result, size: float, elapsed: float, preparing: str) -> None:
     rms, worst = float(result.rms), float(result.max_error)
     print(f"  status     {result.message.split('.')[0]}")
@@ -369,7 +379,7 @@ def _fit(args) -> int:
     pad_to = max(len(outline.points) for outline in outlines)
     for i, outline in enumerate(outlines):
         boundary = args.boundary or ("closed" if outline.closed else "open")
-        size = float(np.linalg.norm(np.ptp(outline.points, axis=0)))
+        size = _size(outline.points)
         print(
             f"contour {i + 1} of {count}: {len(outline.points)} samples, {boundary}, "
             f"size {size:.3g}"
@@ -663,7 +673,7 @@ def _demo(args) -> int:
     outlines = js.io.read_outlines(text=args.text, font="DejaVu Sans", samples=args.samples)
     # A glyph with holes has several contours: fit the outer one (the largest).
     target = max((o.points for o in outlines), key=lambda p: np.ptp(p, axis=0).prod())
-    size = float(np.linalg.norm(np.ptp(target, axis=0)))
+    size = _size(target)
     print(
         f"fitting a closed cubic B-spline with {args.n} control points to the outline of "
         f"{args.text!r} (DejaVu Sans, {len(target)} samples, size {size:.3g})"

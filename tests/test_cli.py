@@ -543,3 +543,20 @@ def test_a_defect_is_one_line_status_3_and_the_traceback_on_request(capsys, tmp_
     monkeypatch.setenv("JAXSUBDIV_TRACEBACK", "1")
     with pytest.raises(KeyError):
         main(["--no-compilation-cache", "refine", str(source)])
+
+
+@pytest.mark.parametrize("scale", [1e300, 1e-300])
+def test_fit_at_extreme_scales_prints_true_figures(capsys, tmp_path, scale):
+    """A circle of radius 2e300 or 2e-300 (once: "status converged, rms error nan", and
+    a ZeroDivisionError): the same relative errors as at radius 2, in range."""
+    source = tmp_path / "circle.csv"
+    source.write_text("".join(f"{float(x)!r}, {float(y)!r}\n" for x, y in scale * _circle(517)))
+    status, out, err = cli(capsys, "fit", source, "--n", 12, "--quiet")
+    assert status == 0, err
+    assert "status     converged" in out
+    size = float(re.search(r"size (\S+)", out).group(1))
+    np.testing.assert_allclose(size / scale, 4 * np.sqrt(2), rtol=1e-2)  # 3 digits
+    absolute, relative = re.search(r"rms error  (\S+) \((\S+) of the size", out).groups()
+    # A circle is not a cubic B-spline: 12 control points leave ~1e-4 of the radius.
+    assert 0 < float(relative) < 1e-3
+    np.testing.assert_allclose(float(absolute) / scale, float(relative) * size / scale, rtol=1e-2)

@@ -651,6 +651,14 @@ def test_fit_under_filter_jit():
         (dict(tol="1e-6"), TypeError, "tol"),
         (dict(fit_params=1), TypeError, "fit_params"),
         (dict(scheme=js.FourPoint(0.2), fit_params=True), ValueError, "(0, 0.19"),
+        # Resources: refused before anything is allocated, with what it would take.
+        (dict(levels=19), ValueError, "GiB, above memory_budget=2,147,483,648 bytes"),
+        (dict(memory_budget=10**5), ValueError, "above memory_budget=100,000 bytes"),
+        (dict(memory_budget=np.nan), ValueError, "positive finite number of bytes"),
+        (dict(memory_budget=0), ValueError, "positive finite number of bytes"),
+        (dict(memory_budget="2GB"), ValueError, "positive finite number of bytes"),
+        (dict(target=np.tile(blob(100), (61, 1)), ordered=False), ValueError, "limit is 5000"),
+        (dict(target=blob(100) * 1e308), ValueError, "spans more than the largest float64"),
     ],
 )
 def test_bad_input_is_a_clear_error(change, error, words):
@@ -688,6 +696,22 @@ def test_non_finite_target_is_a_clear_error():
 def test_open_target_with_closed_boundary_is_a_clear_error():
     with pytest.raises(ValueError, match="looks like an open curve"):
         fitting.fit(blob(100, closed=False), js.CubicBSpline(), 8)
+
+
+@pytest.mark.parametrize("scale", [1e160, 1e-160, 1e300, 1e-300])
+def test_fits_at_any_finite_scale(scale):
+    """A fit commutes with scaling (the solver works in units of the outline's size):
+    control points, errors and `newton_step` of the outline times 1e+-160 or 1e+-300
+    are those of the outline itself, times the scale (once: NaN, or a curve 24% of
+    the size away, reported converged)."""
+    reference = fitting.fit(blob(100), js.CubicBSpline(), 8, tol=1e-10)
+    scaled = fitting.fit(blob(100) * scale, js.CubicBSpline(), 8, tol=1e-10)
+    assert bool(scaled.converged)
+    np.testing.assert_allclose(np.asarray(scaled.control_points) / scale,
+                               reference.control_points, atol=1e-6)
+    for name in ("rms", "max_error", "rms_target_to_curve", "max_curve_to_target"):
+        np.testing.assert_allclose(float(getattr(scaled, name)) / scale,
+                                   float(getattr(reference, name)), rtol=1e-5, err_msg=name)
 
 
 def test_repeated_samples_are_fine():
