@@ -155,9 +155,21 @@ def open_run(n: int, start: int, length: int) -> tuple[int, int]:
 
 
 def open_levels(n: int, start: int, length: int, levels: int) -> tuple[int, int]:
-    """(first, count) of the open run after `levels` levels, in level-`levels` indices."""
+    """(first, count) of the open run after `levels` levels, in level-`levels` indices.
+
+    One level maps `n` points to `2n - c` (with `first` a constant `f`), so while the
+    polygon does not shrink (`n >= c`) the closed forms `c + 2^k (n - c)` and
+    `f (2^k - 1)` give any number of levels in a few integer operations.
+    """
+    if levels == 0:
+        return 0, n
+    f, count = open_run(n, start, length)
+    c = 2 * n - count
+    if n >= c:
+        scale = 2**levels
+        return f * (scale - 1), c + scale * (n - c)
     first = 0
-    for _ in range(levels):
+    for _ in range(levels):  # a shrinking polygon: below one point within n levels
         level_first, n = open_run(n, start, length)
         first = 2 * first + level_first
         if n < 1:
@@ -167,8 +179,10 @@ def open_levels(n: int, start: int, length: int, levels: int) -> tuple[int, int]
 
 def clamped_run(n: int, center: float) -> tuple[int, int]:
     """(first, count) of the outputs at curve parameters in [0, n - 1] (one level)."""
+    # Integer arithmetic (the center is an integer or a half-integer): no float overflow
+    # for huge n.
     first = math.ceil(center)
-    last = math.floor(2 * (n - 1) + center)
+    last = 2 * (n - 1) + math.floor(center)
     return first, last - first + 1
 
 
@@ -176,6 +190,14 @@ def clamped_count(n: int, center: float) -> int:
     _, count = clamped_run(n, center)
     # Primal schemes replace their two end outputs by the end points; dual ones add them.
     return count if float(center).is_integer() else count + 2
+
+
+def clamped_levels(n: int, center: float, levels: int) -> int:
+    """Number of points after `levels` clamped levels: a primal level maps n to 2n - 1,
+    a dual one n to 2n, so `1 + 2^k (n - 1)` and `2^k n` (no loop over the levels)."""
+    if float(center).is_integer():
+        return 1 + 2**levels * (n - 1)
+    return 2**levels * n
 
 
 def ghost_reach(n: int, start: int, length: int, center: float) -> tuple[int, int]:

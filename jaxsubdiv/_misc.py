@@ -1,5 +1,7 @@
 """Small validation helpers shared by the schemes and the kernels."""
 
+import math
+import numbers
 from collections.abc import Callable
 
 import equinox as eqx
@@ -9,11 +11,20 @@ import numpy as np
 from jaxtyping import Array, ArrayLike
 
 
+#: Default cap on the memory one call may build, in bytes (2 GiB): the output of
+#: `refine` and `subdivision_matrix`, the tables of a surface `Refiner`.
+DEFAULT_MEMORY_BUDGET = 2 * 1024**3
+
+#: The largest budget accepted, 2^60 bytes (1 EiB): beyond any machine, and larger sizes
+#: would overflow the 64-bit shapes and byte counts of XLA (an `OverflowError` deep in JAX).
+MAX_MEMORY_BUDGET = 2**60
+
+
 def as_float_array(value: ArrayLike, name: str) -> Array:
     """Convert `value` to a JAX floating array; integers and bools are promoted."""
     try:
         array = jnp.asarray(value)
-    except TypeError as e:
+    except (TypeError, ValueError) as e:  # strings, None, objects
         raise TypeError(f"`{name}` must be array-like, got {type(value).__name__}.") from e
     if not jnp.issubdtype(array.dtype, jnp.inexact):
         array = array.astype(jnp.result_type(float))
@@ -24,19 +35,37 @@ def is_traced(value) -> bool:
     return isinstance(value, jax.core.Tracer)
 
 
+def real_array(value: ArrayLike, name: str) -> Array:
+    """`value` as a real floating JAX array; complex values and non-numbers are a
+    `TypeError` naming `name` (also when traced: the dtype is static)."""
+    array = as_float_array(value, name)
+    if not jnp.issubdtype(array.dtype, jnp.floating):
+        shown = "" if is_traced(array) else f" ({np.asarray(value).tolist()})"
+        raise TypeError(
+            f"`{name}` must be real, got dtype {array.dtype}{shown}: a complex value would "
+            "lose its imaginary part. Pass the real part (`.real`) if that is what you mean."
+        )
+    return array
+
+
 def checked_parameter(
     value: ArrayLike,
     valid: Callable[..., ArrayLike],
     message: str,
     *others: ArrayLike,
+    name: str = "parameter",
 ) -> Array:
     """Return `value` as a float array after checking `valid(value, *others)`.
 
     Concrete values are checked now, with a `ValueError`; traced values (inside `jit`,
     `vmap` or `grad`) get an `eqx.error_if`, which raises when the computation runs.
     The returned array must be the one stored, or the traced check is dropped.
+
+    Parameters must be real numbers: complex values (whose imaginary part refinement
+    would drop) and non-numbers are a `TypeError` naming `name`, also when traced (the
+    dtype is static).
     """
-    array = as_float_array(value, "parameter")
+    array = real_array(value, name)
     if is_traced(array) or any(is_traced(o) for o in others):
         others = tuple(jnp.asarray(o) for o in others)
         return eqx.error_if(array, jnp.logical_not(jnp.all(valid(array, *others))), message)
@@ -46,8 +75,11 @@ def checked_parameter(
     return array
 
 
-def static_int(value, name: str, *, minimum: int) -> int:
-    """Check a shape-setting integer (number of levels, degree, ...) and return it."""
+def static_int(value, name: str, *, minimum: int, maximum: int | None = None, why: str = "") -> int:
+    """Check a shape-setting integer (number of levels, degree, ...) and return it.
+
+    With `maximum`, larger values are a `ValueError` that states the bound and `why`.
+    """
     if is_traced(value):
         raise TypeError(
             f"`{name}` sets array shapes, so it must be a Python int, not a traced "
@@ -58,4 +90,45 @@ def static_int(value, name: str, *, minimum: int) -> int:
         raise TypeError(f"`{name}` must be an int, got {value!r} of type {type(value).__name__}.")
     if value < minimum:
         raise ValueError(f"`{name}` must be >= {minimum}, got {value}.")
+    if maximum is not None and value > maximum:
+        raise ValueError(f"`{name}` must be <= {maximum:,}, got {value:,}{why}.")
     return int(value)
+
+
+def checked_budget(value, name: str = "memory_budget") -> float:
+    """Check a memory budget in bytes: a finite real number, 0 < budget <= 2^60 (not a
+    bool, not traced).
+
+    NaN, infinities, zero, negative numbers and non-numbers are errors, so a budget can
+    never silently switch its check off.
+    """
+    if isinstance(value, jax.Array) and not is_traced(value) and value.ndim == 0:
+        value = value.item()  # a concrete JAX scalar
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.integer, np.floating)):
+        raise TypeError(
+            f"`{name}` must be a number of bytes (an int or a float), got {value!r} of type "
+            f"{type(value).__name__}."
+        )
+    if isinstance(value, (int, np.integer)):
+        number, ok = int(value), value > 0
+    else:
+        number = float(value)
+        ok = math.isfinite(number) and number > 0
+    if not ok:
+        raise ValueError(
+            f"`{name}` must be a finite number of bytes > 0, got {value!r}; the default is "
+            f"{DEFAULT_MEMORY_BUDGET:,} (2 GiB). To allow more, pass a larger finite number."
+        )
+    if number > MAX_MEMORY_BUDGET:
+        raise ValueError(
+            f"`{name}` must be at most 2^60 bytes (1 EiB, more than any machine has), got "
+            f"{number:.3g}; pass the memory you actually have."
+        )
+    return number
+
+
+def format_bytes(size: int | float) -> str:
+    """`size` bytes as GiB ('3.2 GiB'), also for integers too large for a float."""
+    if isinstance(size, int) and size.bit_length() > 1000:
+        return f"about 10^{math.log10(size) - math.log10(1024**3):.0f} GiB"
+    return f"{size / 1024**3:.3g} GiB"

@@ -10,20 +10,29 @@ from jaxtyping import Array, ArrayLike, Float
 from ._kernel import (
     apply_periodic,
     apply_window,
-    clamped_count,
     clamped_level,
+    clamped_levels,
     open_levels,
     polyphase,
 )
-from ._misc import as_float_array, is_traced, static_int
+from ._misc import (
+    DEFAULT_MEMORY_BUDGET as DEFAULT_MEMORY_BUDGET,
+    as_float_array,
+    checked_budget,
+    format_bytes,
+    is_traced,
+    static_int,
+)
 from ._scheme.base import AbstractCurveScheme
 
 
 Boundary = Literal["closed", "open", "clamped"]
 BOUNDARIES = ("closed", "open", "clamped")
 
-#: Default cap on the size of one `refine` output, in bytes (2 GiB).
-DEFAULT_MEMORY_BUDGET = 2 * 1024**3
+#: The most levels `refined_count` counts: the count has about 0.3 x `levels` decimal
+#: digits, so beyond this it would not even print (Python's 4,300-digit limit), and no
+#: memory could hold such a curve.
+MAX_COUNT_LEVELS = 10_000
 
 
 def _check_scheme(scheme) -> AbstractCurveScheme:
@@ -92,6 +101,15 @@ def _min_points(scheme: AbstractCurveScheme, boundary: str) -> int:
     return n
 
 
+def _check_enough_points(n: int, scheme: AbstractCurveScheme, boundary: str) -> None:
+    needed = _min_points(scheme, boundary)
+    if n < needed:
+        raise ValueError(
+            f"{type(scheme).__name__} with boundary={boundary!r} needs at least {needed} "
+            f"control points, got n={n}."
+        )
+
+
 def refined_count(
     n: int,
     scheme: AbstractCurveScheme,
@@ -103,20 +121,32 @@ def refined_count(
     """Number of points `refine` returns for `n` control points.
 
     **Arguments:** as for [`jaxsubdiv.refine`][], with the number of control points `n`
-    in place of the points.
+    in place of the points; `levels` up to 10,000 (`MAX_COUNT_LEVELS`: the count then has
+    about 3,000 digits).
 
     **Returns:** a Python int. Closed curves give $2^k n$; open, clamped and creased
     curves follow the rules documented on each scheme.
+
+    **Raises:** the `ValueError` of `refine` when `n` is too small for the scheme and
+    boundary (e.g. the open cubic B-spline needs 3 points).
     """
     scheme = _check_scheme(scheme)
-    levels = static_int(levels, "levels", minimum=0)
+    levels = static_int(
+        levels,
+        "levels",
+        minimum=0,
+        maximum=MAX_COUNT_LEVELS,
+        why=" for refined_count: the count would have more than 3,000 digits",
+    )
     n = static_int(n, "n", minimum=1)
     boundary = _check_boundary(boundary, scheme)
     creases = _check_creases(creases, n, boundary)
+    _check_enough_points(n, scheme, boundary)
     return _count(n, scheme, levels, boundary, creases)
 
 
 def _count(n, scheme, levels, boundary, creases) -> int:
+    """Closed forms: a few integer operations for any number of levels."""
     if creases:
         pieces = _segments(n, boundary, creases)
         total = sum(_count(len(p), scheme, levels, "clamped", ()) for p in pieces)
@@ -126,9 +156,79 @@ def _count(n, scheme, levels, boundary, creases) -> int:
         return n * 2**levels
     if boundary == "open":
         return open_levels(n, scheme.mask_start, scheme.mask_length, levels)[1]
-    for _ in range(levels):
-        n = clamped_count(n, scheme.center)
-    return n
+    return clamped_levels(n, scheme.center, levels)
+
+
+def _work_bytes(n, d, batch, itemsize, scheme, levels, boundary, creases) -> tuple[int, int, int]:
+    """(count, output bytes, estimated peak bytes) of a refinement, from shapes only.
+
+    The estimate (measured on CPU, float64) is twice the output (the result and XLA's
+    working copy); closed and open curves add eight times the polyphase table of the
+    composite mask (about `mask_length x 2^levels` numbers, which XLA also folds as a
+    constant while compiling), and open curves the padded run of whole filter blocks.
+    Clamped ends and creases, refined level by level with ghost points: four times the
+    output.
+    """
+    count = _count(n, scheme, levels, boundary, creases)
+    values = max(1, batch * d)  # an empty batch still builds the table and compiles
+    out = count * values * itemsize
+    if boundary == "clamped" or creases:
+        return count, out, 4 * out
+    rows = 2**levels
+    table = (scheme.mask_length + 1) * rows * itemsize
+    window = (count + 2 * rows) * values * itemsize if boundary == "open" else out
+    return count, out, 2 * window + 8 * table
+
+
+def _check_memory(
+    n, d, batch, itemsize, scheme, levels, boundary, creases, budget, extra=0, caller="refine"
+):
+    """Raise the memory-budget error before anything is allocated; return the count.
+
+    Every refinement needs at least `2^levels` numbers (closed and clamped outputs grow
+    by two per level, open curves build a table of `2^levels` rows), so a `levels` with
+    `2^levels` numbers above the budget is refused from its bit length alone, without
+    building a huge integer (`levels=10**6` would otherwise hang or overflow).
+    """
+    smallest = max(1, batch * d) * itemsize  # bytes per point of 2^levels
+    # (Up to 64 levels the exact count below is cheap; math.log2 takes huge ints.)
+    if levels > 64 and levels > math.log2(budget) - math.log2(smallest) + 1:
+        raise ValueError(
+            f"{caller} would build more than 2^{levels} points x {d} coordinates"
+            + (f" x {batch:,} curves" if batch > 1 else "")
+            + f" ({levels:,} levels), above memory_budget={budget:,} bytes. "
+            + _advice(n, d, batch, itemsize, scheme, levels, boundary, creases, budget, extra)
+        )
+    count, out, peak = _work_bytes(n, d, batch, itemsize, scheme, levels, boundary, creases)
+    if peak + extra > budget:
+        with_work = (
+            f" and use about {format_bytes(peak + extra)} in all with its working arrays"
+            if peak + extra > out
+            else ""
+        )
+        raise ValueError(
+            f"{caller} would build {count:,} points x {d} coordinates"
+            + (f" x {batch:,} curves" if batch > 1 else "")
+            + f" = {format_bytes(out)}{with_work}, above memory_budget={budget:,} bytes. "
+            + _advice(n, d, batch, itemsize, scheme, levels, boundary, creases, budget, extra)
+        )
+    return count
+
+
+def _advice(n, d, batch, itemsize, scheme, levels, boundary, creases, budget, extra) -> str:
+    # The most levels that fit (the estimate grows with the levels): a bisection.
+    smallest = max(1, batch * d) * itemsize
+    lo, hi = -1, min(levels, int(math.log2(budget) - math.log2(smallest)) + 2)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        peak = _work_bytes(n, d, batch, itemsize, scheme, mid, boundary, creases)[2]
+        lo, hi = (mid, hi) if peak + extra <= budget else (lo, mid)
+    plural = "" if lo == 1 else "s"
+    fewer = f"Use at most {lo} level{plural} here" if lo >= 0 else "Use fewer points or levels"
+    return (
+        f"{fewer}, refine in chunks, evaluate the limit curve at the resolution you need, "
+        "or raise `memory_budget` (a finite number of bytes)."
+    )
 
 
 def _refine_static(points, scheme, levels, boundary, creases):
@@ -191,7 +291,9 @@ def refine(
     - `points`: control points, shape `(..., n, d)` for any `d >= 1` (2-D outlines,
       3-D space curves, extra channels such as colour or width); leading axes are
       batch axes. Integer input is promoted to floating point. The output has the
-      dtype of `points` (float32 and float64 both work).
+      dtype JAX gives `points`: float32 stays float32; float64 stays float64 only when
+      `jax_enable_x64` is on (otherwise JAX, like every JAX function, converts float64
+      input to float32).
     - `scheme`: a curve scheme, e.g. `Chaikin()`, `CornerCutting(r, s)`,
       `FourPoint(w)`, `CubicBSpline()`, `LaneRiesenfeld(degree)`, `SplitTweak(t)`,
       `Jarek()`, `Daubechies()`, `MaskScheme(mask, start)`.
@@ -204,8 +306,13 @@ def refine(
       at them into clamped pieces, so it passes through each crease with a corner.
       Allowed with `"closed"` (the output then starts at the first crease) and
       `"clamped"`.
-    - `memory_budget`: the largest output, in bytes, `refine` will build (default
-      2 GiB); a larger request is an error that states the size.
+    - `memory_budget`: the most memory, in bytes, `refine` may use (default 2 GiB): a
+      finite number > 0. The peak is estimated from the shapes before anything is
+      allocated: for closed and open curves twice the output plus eight times the
+      composite mask's table (`mask_length x 2^levels` numbers), for clamped ends and
+      creases four times the output (measured peaks on CPU). A larger request is an error that states the size and the most
+      levels that fit; so is any `levels` whose `2^levels` numbers alone exceed it (e.g.
+      `levels=10**6`).
 
     **Returns:** the refined points, shape `(..., N, d)` with
     `N = refined_count(n, scheme, levels, boundary, creases=creases)`.
@@ -227,6 +334,7 @@ def refine(
         points = as_float_array(points, "points")
     scheme = _check_scheme(scheme)
     levels = static_int(levels, "levels", minimum=0)
+    memory_budget = checked_budget(memory_budget)
     if points.ndim < 2:
         raise ValueError(
             f"`points` must have shape (..., n, d), got shape {points.shape}. For a "
@@ -237,23 +345,11 @@ def refine(
         raise ValueError("`points` must have at least one coordinate (d >= 1).")
     boundary = _check_boundary(boundary, scheme)
     creases = _check_creases(creases, n, boundary)
-    needed = _min_points(scheme, boundary)
-    if n < needed:
-        raise ValueError(
-            f"{type(scheme).__name__} with boundary={boundary!r} needs at least {needed} "
-            f"control points, got n={n}."
-        )
-    count = _count(n, scheme, levels, boundary, creases)
-    batch = math.prod(points.shape[:-2])
-    size = count * d * batch * jnp.dtype(points.dtype).itemsize
-    if size > memory_budget:
-        raise ValueError(
-            f"refine would build {count:,} points x {d} coordinates"
-            + (f" x {batch:,} curves" if batch > 1 else "")
-            + f" = {size / 1024**3:.3g} GiB, above memory_budget={memory_budget:,} bytes. "
-            "Use fewer levels, refine in chunks, evaluate the limit curve at the "
-            "resolution you need, or raise `memory_budget`."
-        )
+    _check_enough_points(n, scheme, boundary)
+    _check_memory(
+        n, d, math.prod(points.shape[:-2]), jnp.dtype(points.dtype).itemsize, scheme, levels,
+        boundary, creases, memory_budget,
+    )  # fmt: skip
     return _refine_jit(points, scheme, levels, boundary, creases)
 
 
@@ -264,6 +360,7 @@ def subdivision_matrix(
     boundary: Boundary = "closed",
     *,
     creases: Sequence[int] | None = None,
+    memory_budget: int = DEFAULT_MEMORY_BUDGET,
 ) -> Float[Array, "N n"]:
     """The linear map $S$ with `refine(P, ...) == S @ P` for `n` control points.
 
@@ -271,11 +368,27 @@ def subdivision_matrix(
     parameters, and in the dtype of the scheme's mask. It is dense (`N x n`): use it for
     analysis and small fits, and `refine` for large curves.
 
-    **Arguments:** as for [`jaxsubdiv.refined_count`][].
+    **Arguments:** as for [`jaxsubdiv.refined_count`][], and `memory_budget` as for
+    [`jaxsubdiv.refine`][] (default 2 GiB), which here also counts the `n x n` identity;
+    the check runs before the identity is built.
 
     **Returns:** an array of shape `(N, n)`.
     """
     scheme = _check_scheme(scheme)
     n = static_int(n, "n", minimum=1)
-    eye = jnp.eye(n, dtype=scheme.mask().dtype)
-    return refine(eye, scheme, levels, boundary=boundary, creases=creases)
+    levels = static_int(levels, "levels", minimum=0)
+    memory_budget = checked_budget(memory_budget)
+    boundary = _check_boundary(boundary, scheme)
+    checked = _check_creases(creases, n, boundary)
+    _check_enough_points(n, scheme, boundary)
+    dtype = scheme.mask().dtype
+    itemsize = jnp.dtype(dtype).itemsize
+    identity = n * n * itemsize
+    _check_memory(
+        n, n, 1, itemsize, scheme, levels, boundary, checked, memory_budget,
+        extra=identity, caller="subdivision_matrix",
+    )  # fmt: skip
+    eye = jnp.eye(n, dtype=dtype)
+    return refine(
+        eye, scheme, levels, boundary=boundary, creases=creases, memory_budget=memory_budget
+    )

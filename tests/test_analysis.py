@@ -380,6 +380,8 @@ def test_smoothness_and_limits_of_float32_masks():
         P = np.random.default_rng(0).normal(size=(9, 2)).astype(np.float32)
         refined = js.refine(P, js.FourPoint(0.07), 6)
         print(np.asarray(js.limit_points(refined, js.FourPoint(0.07))).dtype)
+        # Rounded in float32 from degree 26; the analysis uses the exact float64 mask.
+        print(js.smoothness(js.LaneRiesenfeld(40)).continuity)
         """
     )
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
@@ -390,3 +392,67 @@ def test_smoothness_and_limits_of_float32_masks():
     assert converges == "True" and int(continuity) == reference.continuity == 1
     assert abs(float(holder) - reference.holder_lower) < 1e-3
     assert out.stdout.split("\n")[1] == "float32"
+    assert out.stdout.split("\n")[2] == "39"  # was C^2 from the rounded float32 mask
+
+
+# --- Hostile input and resource bounds (#17) --------------------------------------------
+
+
+def _long_mask(length, factors=4, seed=0):
+    """An affine-invariant mask: ((1+z)/2)^factors times a random factor q near 1."""
+    rng = np.random.default_rng(seed)
+    q = rng.normal(size=length - factors) * 0.05
+    q[0] += 1
+    a = np.array([2.0])
+    for _ in range(factors):
+        a = np.convolve(a, [0.5, 0.5])
+    a = np.convolve(q / q.sum(), a)
+    a[0::2] /= a[0::2].sum()
+    a[1::2] /= a[1::2].sum()
+    return js.MaskScheme(a, 0)
+
+
+# (id, call, error type, words the message must contain)
+HOSTILE = [
+    # A 128-coefficient mask ran for over 3 minutes: its factor q has degree 123.
+    ("smoothness_128", lambda: js.smoothness(_long_mask(128)), ValueError,
+     ["smoothness", "123 x 123", "limit of 64 x 64"]),
+    ("smoothness_factor_65", lambda: js.smoothness(_long_mask(70)), ValueError,
+     ["65 x 65", "64 x 64"]),
+    ("smoothness_257", lambda: js.smoothness(_long_mask(257)), ValueError,
+     ["257 coefficients", "limit of 256"]),
+    ("analyze_257", lambda: js.analyze(_long_mask(257)), ValueError, ["257 coefficients"]),
+    ("local_matrix_257", lambda: js.local_matrix(_long_mask(257)), ValueError,
+     ["local_matrix", "257 coefficients", "256"]),
+    ("limit_stencil_257", lambda: js.limit_stencil(_long_mask(257)), ValueError,
+     ["limit_stencil", "257 coefficients"]),
+    ("limit_points_257", lambda: js.limit_points(_polygon(300), _long_mask(257)), ValueError,
+     ["257 coefficients"]),
+    ("smoothness_complex_parameter", lambda: js.smoothness(js.FourPoint(0.05 + 0.1j)), TypeError,
+     ["FourPoint(w)", "must be real"]),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("call, error, words", [c[1:] for c in HOSTILE], ids=[c[0] for c in HOSTILE])
+def test_hostile_input_is_one_clear_error(call, error, words):
+    with pytest.raises(error) as info:
+        call()
+    message = str(info.value)
+    assert "\n" not in message
+    for word in words:
+        assert word in message
+
+
+def test_smoothness_just_inside_the_size_limit():
+    # q of degree 64: the largest search; it answers (bounds, maybe undecided) quickly.
+    r = js.smoothness(_long_mask(69))
+    assert r.factors == 4 and r.converges
+    assert 0 < r.jsr_lower <= r.jsr_upper < math.inf
+    assert r.holder_lower <= r.holder_upper
+
+
+def test_lane_riesenfeld_at_the_largest_degree_is_exact():
+    r = js.smoothness(js.LaneRiesenfeld(55))
+    assert (r.continuity, r.decided, r.holder_lower, r.holder_upper) == (54, True, 55.0, 55.0)
+    host = js.LaneRiesenfeld(40).host_mask()
+    assert host.dtype == np.float64 and host[0] == 2.0**-40

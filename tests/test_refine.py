@@ -1,5 +1,8 @@
 """`refine`, `refined_count` and `subdivision_matrix` against independent references."""
 
+import math
+import re
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -536,3 +539,134 @@ def test_bad_parameters_traced_raise_at_run_time():
 def test_batched_scheme_without_vmap_is_a_clear_error():
     with pytest.raises(ValueError, match="vmap"):
         js.refine(polygon(6), js.FourPoint(jnp.array([0.0, 0.1])), 2)
+
+
+# --------------------------------------------------------------------------------------
+# Hostile input and resource bounds (#17): one clear error, before allocating
+
+
+def _budget_cases():
+    P = polygon(8)
+    cases = []
+    for value, error in [(float("nan"), ValueError), (float("inf"), ValueError),
+                         (0, ValueError), (-1.0, ValueError), (2**61, ValueError),
+                         ("1e9", TypeError), (None, TypeError), (True, TypeError),
+                         (1e9 + 1j, TypeError)]:  # fmt: skip
+        cases.append((f"refine_budget_{value!r}",
+                      lambda v=value: js.refine(P, js.Chaikin(), 2, memory_budget=v),
+                      error, ["memory_budget"]))  # fmt: skip
+        cases.append((f"matrix_budget_{value!r}",
+                      lambda v=value: js.subdivision_matrix(8, js.Chaikin(), 2, memory_budget=v),
+                      error, ["memory_budget"]))  # fmt: skip
+    return cases
+
+
+# (id, call, error type, words the message must contain)
+HOSTILE = [
+    ("lane_riesenfeld_56", lambda: js.LaneRiesenfeld(56), ValueError,
+     ["LaneRiesenfeld(degree)", "<= 55", "float64"]),
+    ("lane_riesenfeld_100000", lambda: js.LaneRiesenfeld(100_000), ValueError,
+     ["LaneRiesenfeld(degree)", "<= 55"]),
+    ("clamped_1e6_levels", lambda: js.refine(polygon(8), js.Chaikin(), 10**6, boundary="clamped"),
+     ValueError, ["2^1000000 points", "memory_budget", "at most 22 levels"]),
+    ("closed_14000_levels", lambda: js.refine(polygon(8), js.Chaikin(), 14_000), ValueError,
+     ["2^14000 points", "memory_budget"]),
+    ("open_1e6_levels", lambda: js.refine(polygon(8), js.Chaikin(), 10**6, boundary="open"),
+     ValueError, ["memory_budget", "levels"]),
+    # Two points stay two points (n -> 2(n - 1)), but the composite mask's table has
+    # 2^40 rows: the budget counts it.
+    ("open_fixed_point_40_levels",
+     lambda: js.refine(polygon(2), js.Chaikin(), 40, boundary="open"), ValueError,
+     ["2 points x 2 coordinates", "working arrays", "memory_budget"]),
+    ("batch_of_curves",  # a broadcast view: nothing allocated
+     lambda: js.refine(np.broadcast_to(polygon(8), (10**6, 8, 2)), js.Chaikin(), 10),
+     ValueError, ["x 1,000,000 curves", "memory_budget"]),
+    ("refined_count_too_few_points", lambda: js.refined_count(2, js.CubicBSpline(), 3, "open"),
+     ValueError, ["CubicBSpline", "at least 3 control points", "n=2"]),
+    ("refined_count_huge_levels", lambda: js.refined_count(8, js.Chaikin(), 10**6), ValueError,
+     ["levels", "10,000"]),
+    ("subdivision_matrix_100000", lambda: js.subdivision_matrix(100_000, js.Chaikin(), 3),
+     ValueError, ["subdivision_matrix", "100000 coordinates", "memory_budget"]),
+    ("four_point_complex", lambda: js.FourPoint(0.05 + 1j), TypeError,
+     ["FourPoint(w)", "must be real", "imaginary"]),
+    ("corner_cutting_complex_r", lambda: js.CornerCutting(0.2 + 1j, 0.5), TypeError,
+     ["CornerCutting(r)", "must be real"]),
+    ("corner_cutting_complex_s", lambda: js.CornerCutting(0.2, 0.5 + 0.1j), TypeError,
+     ["CornerCutting(s)", "must be real"]),
+    ("split_tweak_complex", lambda: js.SplitTweak(np.complex128(0.5)), TypeError,
+     ["SplitTweak(t)", "must be real"]),
+    ("mask_complex", lambda: js.MaskScheme([0.25 + 0j, 0.75, 0.75, 0.25j], -2), TypeError,
+     ["MaskScheme(mask)", "must be real"]),
+    ("from_rules_complex", lambda: js.MaskScheme.from_rules([0.75j, 0.25], [0.25, 0.75], 0, 0),
+     TypeError, ["MaskScheme(mask)", "must be real"]),
+    ("four_point_string", lambda: js.FourPoint("0.1"), TypeError, ["FourPoint(w)"]),
+    ("split_tweak_none", lambda: js.SplitTweak(None), TypeError, ["SplitTweak(t)"]),
+    ("four_point_complex_traced", lambda: jax.jit(lambda w: js.FourPoint(w).w)(0.05 + 1j),
+     TypeError, ["FourPoint(w)", "must be real"]),
+    *_budget_cases(),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("call, error, words", [c[1:] for c in HOSTILE], ids=ids(HOSTILE))
+def test_hostile_input_is_one_clear_error(call, error, words):
+    with pytest.raises(error) as info:
+        call()
+    message = str(info.value)
+    assert "\n" not in message
+    for word in words:
+        assert word in message
+
+
+def test_subdivision_matrix_checks_the_budget_before_building_the_identity(monkeypatch):
+    def eye(*args, **kwargs):
+        raise AssertionError("the identity was built before the budget check")
+
+    monkeypatch.setattr(jnp, "eye", eye)
+    with pytest.raises(ValueError, match="memory_budget"):
+        js.subdivision_matrix(100_000, js.Chaikin(), 3)
+
+
+def test_budget_just_inside_the_bound_works():
+    # The error names the most levels that fit; those levels then run under that budget.
+    P, budget = polygon(16), 10**6
+    with pytest.raises(ValueError, match=r"at most (\d+) levels") as info:
+        js.refine(P, js.Chaikin(), 30, memory_budget=budget)
+    most = int(re.search(r"at most (\d+) levels", str(info.value)).group(1))
+    assert js.refine(P, js.Chaikin(), most, memory_budget=budget).shape == (16 * 2**most, 2)
+    with pytest.raises(ValueError, match="memory_budget"):
+        js.refine(P, js.Chaikin(), most + 1, memory_budget=budget)
+    assert js.subdivision_matrix(8, js.Chaikin(), 2, memory_budget=np.float64(1e6)).shape == (32, 8)
+    assert js.refine(P, js.Chaikin(), 1, memory_budget=2**60).shape == (32, 2)  # the largest
+
+
+def test_lane_riesenfeld_at_the_largest_degree():
+    scheme = js.LaneRiesenfeld(55)
+    mask = np.asarray(scheme.mask())
+    expected = np.array([math.comb(56, k) / 2**55 for k in range(57)])
+    np.testing.assert_array_equal(mask, expected)  # exact in float64
+    np.testing.assert_array_equal(scheme.host_mask(), expected)
+    assert mask[0::2].sum() == mask[1::2].sum() == 1.0
+    P = polygon(12)
+    out = js.refine(P, scheme, 1)
+    reference = refine_by_definition(P, mask, scheme.mask_start, 1, "closed")
+    np.testing.assert_allclose(out, reference, atol=1e-12)
+    # Degrees 31 and 63 overflowed int32/int64 binomials; 31 is now an ordinary mask.
+    assert np.isclose(float(np.sum(js.LaneRiesenfeld(31).mask())), 2.0)
+
+
+@pytest.mark.parametrize("name, scheme", all_schemes(), ids=[s[0] for s in all_schemes()])
+@pytest.mark.parametrize("boundary", ["open", "clamped"])
+def test_closed_form_counts_match_level_by_level_counts(name, scheme, boundary):
+    if boundary == "clamped" and scheme.clamp_ghost is None:
+        pytest.skip("no clamped rule")
+    n0 = js._refine._min_points(scheme, boundary)
+    for n in (n0, n0 + 1, n0 + 5):
+        count = n
+        for levels in range(6):
+            assert js.refined_count(n, scheme, levels, boundary) == count
+            if boundary == "open":
+                count = js._kernel.open_run(count, scheme.mask_start, scheme.mask_length)[1]
+            else:
+                count = js._kernel.clamped_count(count, scheme.center)
+    # Thousands of levels are a few integer operations (the old loop took minutes).
+    assert js.refined_count(8, scheme, 10_000, boundary) > 2**10_000

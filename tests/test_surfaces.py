@@ -816,3 +816,99 @@ def test_errors():
         refiner(np.zeros((9, 3)))
     with pytest.raises(ValueError, match=r"\(\.\.\., 8, channels\)"):
         refiner.tables[0](np.zeros((9, 3)))
+
+
+# ------------------------------------------- hostile input and resource bounds (#17)
+
+
+def _cube_mesh():
+    return jss.Mesh(*cube())
+
+
+# (id, call, error type, words the message must contain)
+HOSTILE = [
+    # Went past 6 GB; the estimate (400 bytes per half-edge) stops it before building.
+    ("refine_mesh_cube_12", lambda: jss.refine_mesh(_cube_mesh(), jss.CatmullClark(), 12),
+     ValueError, ["memory_budget", "level 9", "at most 8 levels"]),
+    ("refiner_cube_12", lambda: jss.Refiner(_cube_mesh(), jss.CatmullClark(), 12), ValueError,
+     ["Refiner", "CatmullClark", "memory_budget", "at most 8 levels"]),
+    ("refiner_loop", lambda: jss.Refiner(jss.Mesh(*icosahedron()), jss.Loop(), 9,
+                                         memory_budget=2**20), ValueError,
+     ["Loop", "memory_budget=1,048,576", "at most"]),
+    ("refiner_doo_sabin", lambda: jss.refine_mesh(_cube_mesh(), jss.DooSabin(), 5,
+                                                  memory_budget=10**5), ValueError,
+     ["DooSabin", "at most"]),
+    ("refiner_31_levels", lambda: jss.Refiner(_cube_mesh(), jss.Loop(), 31), ValueError,
+     ["levels", "<= 30"]),
+    ("refiner_budget_nan", lambda: jss.Refiner(_cube_mesh(), jss.CatmullClark(), 1,
+                                               memory_budget=float("nan")), ValueError,
+     ["memory_budget", "finite"]),
+    ("refine_mesh_budget_inf", lambda: jss.refine_mesh(_cube_mesh(), jss.CatmullClark(), 1,
+                                                       memory_budget=float("inf")),
+     ValueError, ["memory_budget"]),
+    ("refine_mesh_budget_zero", lambda: jss.refine_mesh(_cube_mesh(), jss.CatmullClark(), 1,
+                                                        memory_budget=0), ValueError,
+     ["memory_budget"]),
+    ("refine_mesh_budget_string", lambda: jss.refine_mesh(_cube_mesh(), jss.CatmullClark(), 1,
+                                                          memory_budget="2GB"), TypeError,
+     ["memory_budget"]),
+    ("refiner_call_output", lambda: jss.Refiner(_cube_mesh(), jss.CatmullClark(), 1,
+                                                memory_budget=40_000)(np.zeros((100, 8, 3))),
+     ValueError, ["26 vertices", "memory_budget=40,000"]),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("call, error, words", [c[1:] for c in HOSTILE], ids=[c[0] for c in HOSTILE])
+def test_hostile_input_is_one_clear_error(call, error, words):
+    with pytest.raises(error) as info:
+        call()
+    message = str(info.value)
+    assert "\n" not in message
+    for word in words:
+        assert word in message
+
+
+def test_refiner_budget_just_inside_the_bound():
+    # Catmull-Clark on the cube: 24 half-edges x 4^2 at 400 bytes each after two levels.
+    need = 24 * 16 * jss.CatmullClark.bytes_per_half_edge
+    refiner = jss.Refiner(_cube_mesh(), jss.CatmullClark(), 2, memory_budget=need)
+    assert refiner.num_vertices == 98
+    assert refiner(cube()[0]).shape == (98, 3)
+    with pytest.raises(ValueError, match="at most 1 level here"):
+        jss.Refiner(_cube_mesh(), jss.CatmullClark(), 2, memory_budget=need - 1)
+    assert jss.refine_mesh(_cube_mesh(), jss.CatmullClark(), 2, memory_budget=need).num_faces == 96
+
+
+@pytest.mark.parametrize(
+    "scheme, make, exact",
+    [
+        (jss.CatmullClark(), lambda: jss.Mesh(*cube()), True),
+        (jss.CatmullClark(), lambda: jss.Mesh(*grid(3, 2), corners=[0]), True),
+        (jss.CatmullClark(), lambda: jss.Mesh(*prism()), True),
+        (jss.Loop(), lambda: jss.Mesh(*icosahedron()), True),
+        (jss.Loop(), lambda: jss.Mesh(*hexagon_fan()), True),
+        (jss.DooSabin(), lambda: jss.Mesh(*cube()), True),
+        (jss.DooSabin(), lambda: jss.Mesh(*grid(3, 3)), False),
+        (jss.DooSabin(), lambda: jss.Mesh(*cube(), creases=[[0, 1], [1, 3], [3, 2], [2, 0]],
+                                          corners=[0]), False),
+        (jss.DooSabin(), lambda: jss.Mesh(*cube(), creases=[[0, 1], [1, 3], [3, 2], [2, 0],
+                                                            [0, 4], [4, 5], [5, 1]]), False),
+    ],
+    ids=["cc_cube", "cc_grid", "cc_prism", "loop_ico", "loop_fan", "ds_cube", "ds_grid",
+         "ds_crease_loop", "ds_crease_corners"],
+)  # fmt: skip
+def test_predicted_counts_bound_the_refined_mesh(scheme, make, exact):
+    """The budget check predicts each level from counts alone: exactly for Loop and
+    Catmull-Clark, and never below the real counts for Doo-Sabin."""
+    from jaxsubdiv.surfaces._base import Counts
+    from jaxsubdiv.surfaces._topology import build_topology
+
+    mesh = make()
+    predicted = Counts.of(build_topology(mesh.faces, mesh.num_vertices, mesh.creases, mesh.corners))
+    for levels in (1, 2, 3):
+        predicted = scheme.refined_counts(predicted)
+        r = jss.Refiner(mesh, scheme, levels)
+        actual = Counts.of(build_topology(r.faces, r.num_vertices, r.creases, r.corners))
+        fields = ("vertices", "edges", "faces", "half_edges", "sharp")
+        pairs = [(getattr(predicted, f), getattr(actual, f)) for f in fields]
+        assert all(p == a for p, a in pairs) if exact else all(p >= a for p, a in pairs), pairs

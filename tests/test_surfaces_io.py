@@ -103,3 +103,49 @@ def test_non_manifold_file(tmp_path):
 def test_write_needs_3d(tmp_path):
     with pytest.raises(ValueError, match="3-d positions"):
         jss.write_mesh(tmp_path / "x.obj", jss.Mesh(np.zeros((3, 2)), [[0, 1, 2]]))
+
+
+# Hostile files (#17): (id, file name, contents as bytes, words the message must contain)
+HOSTILE_FILES = [
+    ("binary_ply", "bin.ply",
+     b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+     b"property float y\nproperty float z\nelement face 1\n"
+     b"property list uchar int vertex_indices\nend_header\n"
+     + np.array([0, 0, 0, 1, 0, 0, 0, 1, 0.5], "<f4").tobytes() + b"\x03"
+     + np.array([0, 1, 2], "<i4").tobytes() + b"\xff\xfe\x80",
+     ["bin.ply", "line 2", "only ASCII PLY", "binary_little_endian"]),
+    ("binary_big_endian_ply", "big.ply",
+     b"ply\nformat binary_big_endian 1.0\nelement vertex 0\nend_header\n\x80\x81",
+     ["big.ply", "only ASCII PLY"]),
+    ("nan_vertex_obj", "nan.obj", b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n",
+     ["nan.obj", "vertex 1", "non-finite"]),
+    ("inf_vertex_off", "inf.off", b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 -inf 0\n3 0 1 2\n",
+     ["inf.off", "vertex 2", "non-finite"]),
+    ("overflowing_vertex_ply", "big.ply",
+     b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+     b"property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+     b"0 0 0\n1e400 0 0\n0 1 0\n3 0 1 2\n",
+     ["big.ply", "vertex 1", "non-finite"]),
+    ("not_text_obj", "bin.obj", b"v 0 0 0\n\xff\xfe\x00\x01",
+     ["bin.obj", "not a text OBJ file"]),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "name, data, words", [c[1:] for c in HOSTILE_FILES], ids=[c[0] for c in HOSTILE_FILES]
+)
+def test_hostile_files_are_one_clear_error(tmp_path, name, data, words):
+    path = tmp_path / name
+    path.write_bytes(data)
+    with pytest.raises(ValueError) as info:
+        jss.read_mesh(path)
+    message = str(info.value)
+    assert "\n" not in message
+    for word in words:
+        assert word in message
+
+
+def test_finite_extreme_vertices_are_read(tmp_path):
+    path = tmp_path / "ok.obj"
+    path.write_text("v 0 0 0\nv 1e308 0 0\nv 0 -1e-320 0\nf 1 2 3\n")
+    np.testing.assert_array_equal(jss.read_mesh(path).vertices[1], [1e308, 0, 0])

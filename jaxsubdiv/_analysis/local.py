@@ -36,6 +36,7 @@ from jaxtyping import Array, Float, Inexact
 
 from .._misc import is_traced
 from .._scheme.base import AbstractCurveScheme
+from .smoothness import MAX_MASK_LENGTH
 
 
 At = Literal["vertex", "edge"]
@@ -47,6 +48,13 @@ def check_scheme(scheme, caller: str) -> AbstractCurveScheme:
             f"`{caller}(scheme=...)` must be a jaxsubdiv curve scheme such as "
             "`jaxsubdiv.FourPoint(w)` or `jaxsubdiv.MaskScheme(mask, start)`; got "
             f"{type(scheme).__name__}."
+        )
+    if scheme.mask_length > MAX_MASK_LENGTH:
+        raise ValueError(
+            f"`{caller}(scheme=...)`: {type(scheme).__name__} has a mask of "
+            f"{scheme.mask_length:,} coefficients, above the limit of {MAX_MASK_LENGTH} for "
+            "analysis (the local matrices are dense and built by loops quadratic in the "
+            "length). Analyze a shorter mask."
         )
     if scheme.mask().ndim != 1:
         raise ValueError(

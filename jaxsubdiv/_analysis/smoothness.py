@@ -206,6 +206,33 @@ _PASSES = (
     dict(delta=2e-4, max_length=80, max_products=8192),
 )
 
+#: The largest transition matrices (`M x M`, `M` the degree of the factor `q` left after
+#: dividing the symbol by $(1+z)^N$) that `smoothness` searches. A product of two costs
+#: $O(M^3)$ and each pass evaluates up to `max_length x max_products` of them (eigenvalues
+#: and norms too): measured 28 us per product at M = 8, 1.2 ms at M = 64, and a random
+#: 128-coefficient mask (M = 123) ran for more than 3 minutes. Above `MAX_JSR_SIZE` the
+#: bounds would need hours to be useful, so it is an error.
+MAX_JSR_SIZE = 64
+
+#: Masks longer than this are an error in every analysis function: factoring the symbol
+#: and building the local matrices are Python loops over the coefficients (quadratic in
+#: the length), and a longer mask cannot be analyzed to working precision anyway (it
+#: needs either $N > 55$ factors $(1+z)$, which are not exact in float64, or transition
+#: matrices larger than `MAX_JSR_SIZE`).
+MAX_MASK_LENGTH = 256
+
+# Work per pass is capped at what the passes cost at M = 8: beyond that the number of
+# products kept per length shrinks like M^-3 (at least 16), so the worst case stays
+# within seconds; the bounds stay rigorous, only less tight (`decided` may be False).
+_WORK_SIZE = 8
+
+
+def _effort(effort: dict, m: int) -> dict:
+    if m <= _WORK_SIZE:
+        return effort
+    scaled = int(effort["max_products"] * (_WORK_SIZE / m) ** 3)
+    return {**effort, "max_products": max(16, scaled)}
+
 
 @ft.lru_cache(maxsize=4096)
 def _smoothness_cached(mask: tuple[float, ...], tol: float = 1e-9) -> Smoothness:
@@ -227,9 +254,17 @@ def _smoothness_cached(mask: tuple[float, ...], tol: float = 1e-9) -> Smoothness
             ),
         )
     n, q = factor_symbol(a, tol=0.1 * tol)
+    if len(q) - 1 > MAX_JSR_SIZE:
+        raise ValueError(
+            f"`smoothness(scheme=...)`: after factoring out (1+z)^{n} the mask leaves a "
+            f"factor of degree {len(q) - 1}, whose {len(q) - 1} x {len(q) - 1} transition "
+            f"matrices are above the limit of {MAX_JSR_SIZE} x {MAX_JSR_SIZE}: the joint "
+            "spectral radius search costs O(M^3) per matrix product and would run for "
+            "minutes to hours. Analyze a shorter mask (or one with more (1+z) factors)."
+        )
     matrices = transition_matrices(q)
     for effort in _PASSES:
-        lo, hi = jsr_bounds(matrices, **effort)
+        lo, hi = jsr_bounds(matrices, **_effort(effort, len(q) - 1))
         holder_lower = n - 1 - math.log2(hi)
         holder_upper = n - 1 - math.log2(lo) if lo > 0 else math.inf
         k = math.ceil(holder_lower) - 1  # largest integer strictly below holder_lower
@@ -285,6 +320,13 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
     - `scheme`: a curve scheme with concrete parameter values. Runs on the host with
       NumPy in float64; traced parameters (inside `jit`, `vmap`, `grad`) are an error.
 
+    **Limits:** masks of at most 256 coefficients (`MAX_MASK_LENGTH`), and after
+    factoring out $(1+z)^N$ a factor of degree at most 64 (`MAX_JSR_SIZE`); larger ones
+    are a `ValueError` (the search costs $O(M^3)$ per matrix product: a
+    128-coefficient random mask ran for over 3 minutes). Above degree 8 the search keeps
+    fewer products per length (its work is capped at what degree 8 costs), so the bounds
+    are looser and `decided` is more often False; a worst case takes seconds.
+
     **Returns:** a [`jaxsubdiv.Smoothness`][] with `converges`, `holder_lower`,
     `holder_upper`, `continuity` (the largest $k$ with a $C^k$ limit, -1 if it does not
     converge), `decided`, `factors`, `jsr_lower`, `jsr_upper` and `reason`.
@@ -294,6 +336,13 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
         raise TypeError(
             "`smoothness(scheme=...)` must be a jaxsubdiv curve scheme; for a raw mask use "
             f"`jaxsubdiv.MaskScheme(mask, start)`. Got {type(scheme).__name__}."
+        )
+    if scheme.mask_length > MAX_MASK_LENGTH:
+        raise ValueError(
+            f"`smoothness(scheme=...)`: {type(scheme).__name__} has a mask of "
+            f"{scheme.mask_length:,} coefficients, above the limit of {MAX_MASK_LENGTH} for "
+            "analysis (its cost grows with the square of the length and longer masks cannot "
+            "be analyzed to working precision). Analyze a shorter mask."
         )
     mask = scheme.mask()
     if is_traced(mask):
@@ -310,8 +359,9 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
     # The mask's rounding sets how exactly its sums and factors can hold: 1e-9 in
     # float64, about 1e-5 for a float32 mask (e.g. with x64 off), whose coefficients
     # (such as -w and 1/2 + w) round separately.
-    tol = max(1e-9, 128 * float(np.finfo(np.asarray(mask).dtype).eps))
-    values = np.asarray(mask, dtype=np.float64)
+    host = scheme.host_mask()
+    tol = max(1e-9, 128 * float(np.finfo(host.dtype).eps))
+    values = np.asarray(host, dtype=np.float64)
     if not np.all(np.isfinite(values)):
         raise ValueError(f"`smoothness`: the mask has non-finite coefficients: {values}.")
     # Parity of the first coefficient: rotate so index 0 of the tuple is an even index.

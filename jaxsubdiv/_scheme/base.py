@@ -3,6 +3,7 @@ import math
 from typing import ClassVar, Literal
 
 import equinox as eqx
+import numpy as np
 from jaxtyping import Array, Float
 
 
@@ -38,6 +39,15 @@ class AbstractCurveScheme(eqx.Module):
         Built with `jax.numpy` from the scheme's parameters, so it is differentiable in
         them. Its length `L` is static.
         """
+
+    def host_mask(self) -> np.ndarray:
+        """The mask as a NumPy array, for the host-side analysis (`smoothness`).
+
+        Needs concrete parameters. By default `np.asarray(self.mask())`, in the mask's
+        dtype; a scheme whose mask is a constant may return it in float64 whatever
+        JAX's default dtype, so its analysis is exact with x64 off too.
+        """
+        return np.asarray(self.mask())
 
     @property
     @abc.abstractmethod

@@ -3,7 +3,7 @@ from typing import ClassVar
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._misc import checked_parameter
+from .._misc import checked_parameter, real_array
 from .base import AbstractCurveScheme
 
 
@@ -25,8 +25,8 @@ class CornerCutting(AbstractCurveScheme):
 
     **Arguments:**
 
-    - `r`, `s`: the two ratios, $0 < r < s < 1$; JAX scalars are fine (traced,
-      differentiable, vmappable).
+    - `r`, `s`: the two ratios, $0 < r < s < 1$; real numbers (complex ones are a
+      `TypeError`); JAX scalars are fine (traced, differentiable, vmappable).
 
     Boundaries: `"closed"`, `"open"` ($n \to 2(n-1)$), `"clamped"` (end points kept:
     $n \to 2n$), and creases.
@@ -38,8 +38,11 @@ class CornerCutting(AbstractCurveScheme):
 
     def __init__(self, r: ArrayLike, s: ArrayLike):
         message = "`CornerCutting(r, s)` needs 0 < r < s < 1."
-        self.r = checked_parameter(r, _ordered, message, s)
-        self.s = checked_parameter(s, lambda s_, r_: _ordered(r_, s_), message, r)
+        r, s = real_array(r, "CornerCutting(r)"), real_array(s, "CornerCutting(s)")
+        self.r = checked_parameter(r, _ordered, message, s, name="CornerCutting(r)")
+        self.s = checked_parameter(
+            s, lambda s_, r_: _ordered(r_, s_), message, r, name="CornerCutting(s)"
+        )
 
     def mask(self) -> Float[Array, " 4"]:
         return jnp.stack([self.r, self.s, 1 - self.r, 1 - self.s])

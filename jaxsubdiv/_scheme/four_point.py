@@ -21,7 +21,7 @@ class FourPoint(AbstractCurveScheme):
 
     **Arguments:**
 
-    - `w`: the tension, $-1/4 < w < 1/4$ (default $1/16$). On that interval the
+    - `w`: the tension, a real number with $-1/4 < w < 1/4$ (default $1/16$). On that interval the
       difference scheme is contractive in the max norm ($\tfrac12 + 2|w| < 1$), so the
       scheme converges (Dyn, Levin and Gregory 1987); smoothness ($C^1$ or not) depends
       on `w`: see `jaxsubdiv.smoothness`.
@@ -39,7 +39,10 @@ class FourPoint(AbstractCurveScheme):
 
     def __init__(self, w: ArrayLike = 1 / 16):
         self.w = checked_parameter(
-            w, lambda w_: (-0.25 < w_) & (w_ < 0.25), "`FourPoint(w)` needs -1/4 < w < 1/4."
+            w,
+            lambda w_: (-0.25 < w_) & (w_ < 0.25),
+            "`FourPoint(w)` needs -1/4 < w < 1/4.",
+            name="FourPoint(w)",
         )
 
     def mask(self) -> Float[Array, " 7"]:

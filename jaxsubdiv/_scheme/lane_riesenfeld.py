@@ -2,10 +2,21 @@ from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from .._misc import static_int
 from .base import AbstractCurveScheme, binomial_row
+
+
+#: The largest `LaneRiesenfeld` degree. The mask is $\binom{d+1}{k} / 2^d$, and the
+#: binomials stay below $2^{53}$ up to $d = 55$, so up to there the mask is exact in
+#: float64. From $d = 56$ it is rounded, and the rounded mask is no longer divisible by
+#: $(1+z)^{d+1}$ to working precision: it is not the degree-$d$ B-spline scheme any more
+#: (`smoothness` then reports $C^8$ for $d = 56$, where the B-spline is $C^{55}$). The
+#: integer binomials overflowed JAX's int32/int64 arrays from $d = 31$ / $63$; they are
+#: now divided in Python. A $C^{54}$ limit is far past any practical use anyway.
+MAX_DEGREE = 55
 
 
 class LaneRiesenfeld(AbstractCurveScheme):
@@ -25,7 +36,11 @@ class LaneRiesenfeld(AbstractCurveScheme):
 
     **Arguments:**
 
-    - `degree`: the B-spline degree $d \ge 1$ (static: it sets the mask length).
+    - `degree`: the B-spline degree, $1 \le d \le 55$ (static: it sets the mask
+      length). Up to 55 the mask is exact in float64 (see `MAX_DEGREE`); in float32
+      (JAX's default) it is exact up to degree 25 and rounded above, which is fine for
+      refining but not for analysis: `smoothness` and `analyze` use the exact float64
+      mask.
 
     Boundaries: `"closed"`, `"open"` ($n \to 2n - d$), `"clamped"` (reflected ghost
     points, ends kept), and creases.
@@ -37,10 +52,28 @@ class LaneRiesenfeld(AbstractCurveScheme):
     clamp_ghost: ClassVar[str] = "reflect"
 
     def __init__(self, degree: int):
-        self.degree = static_int(degree, "LaneRiesenfeld(degree)", minimum=1)
+        self.degree = static_int(
+            degree,
+            "LaneRiesenfeld(degree)",
+            minimum=1,
+            maximum=MAX_DEGREE,
+            why=(
+                f": above it the mask binomial(degree+1, k) / 2^degree is no longer exact "
+                f"in float64, so it is not that B-spline scheme; use a degree <= {MAX_DEGREE}"
+            ),
+        )
 
     def mask(self) -> Float[Array, " degree+2"]:
-        return jnp.array(binomial_row(self.degree + 1)) / 2**self.degree
+        # Exact integer binomials divided by 2^d in Python (int / int is correctly
+        # rounded), so no integer array overflows int32/int64 (from d = 31 / 63).
+        scale = 2**self.degree
+        return jnp.array([c / scale for c in binomial_row(self.degree + 1)])
+
+    def host_mask(self) -> np.ndarray:
+        # Exact in float64 whatever JAX's default dtype (the float32 mask is rounded
+        # from degree 26 on, and its analysis would then see a different scheme).
+        scale = 2**self.degree
+        return np.array([c / scale for c in binomial_row(self.degree + 1)], np.float64)
 
     @property
     def mask_length(self) -> int:

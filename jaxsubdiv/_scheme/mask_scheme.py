@@ -25,7 +25,7 @@ class MaskScheme(AbstractCurveScheme):
 
     **Arguments:**
 
-    - `mask`: the coefficients $a_k$ (1-D, length $L \ge 2$; may be traced, so a mask can
+    - `mask`: the coefficients $a_k$ (real, 1-D, length $L \ge 2$; may be traced, so a mask can
       be differentiated or optimised). Each sub-mask must sum to one (the scheme then
       reproduces constants and is affine invariant).
     - `start`: the index $k$ of `mask[0]` (static int). It fixes where outputs sit
@@ -53,6 +53,7 @@ class MaskScheme(AbstractCurveScheme):
             "`MaskScheme(mask=...)`: the even-indexed and the odd-indexed coefficients "
             "must each sum to 1 (otherwise the scheme is not affine invariant and does "
             "not converge).",
+            name="MaskScheme(mask)",
         )
 
     @classmethod

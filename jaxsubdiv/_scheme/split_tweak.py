@@ -23,7 +23,7 @@ class SplitTweak(AbstractCurveScheme):
 
     **Arguments:**
 
-    - `t`: the tweak, $0 \le t \le 1$ (traced, differentiable, vmappable).
+    - `t`: the tweak, a real number with $0 \le t \le 1$ (traced, differentiable, vmappable).
 
     Boundaries: `"closed"`, `"open"` ($n \to 2n - 5$), `"clamped"` (reflected ghost
     points, ends kept; note `FourPoint`'s classic clamped rule repeats the end points
@@ -38,7 +38,10 @@ class SplitTweak(AbstractCurveScheme):
 
     def __init__(self, t: ArrayLike):
         self.t = checked_parameter(
-            t, lambda t_: (0 <= t_) & (t_ <= 1), "`SplitTweak(t)` needs 0 <= t <= 1."
+            t,
+            lambda t_: (0 <= t_) & (t_ <= 1),
+            "`SplitTweak(t)` needs 0 <= t <= 1.",
+            name="SplitTweak(t)",
         )
 
     def mask(self) -> Float[Array, " 7"]:

@@ -2,6 +2,7 @@
 
 import abc
 import dataclasses
+from typing import ClassVar
 
 import equinox as eqx
 import numpy as np
@@ -61,6 +62,26 @@ class LimitStencils:
         )
 
 
+@dataclasses.dataclass(frozen=True)
+class Counts:
+    """Sizes of a mesh's topology, for estimating refinement before building it."""
+
+    vertices: int
+    edges: int
+    faces: int
+    half_edges: int
+    sharp: int  # sharp (boundary or crease) edges
+    corner_ends: int  # sharp edges counted at each corner vertex they end at
+
+    @staticmethod
+    def of(topo: Topology) -> "Counts":
+        ends = np.bincount(topo.edges[topo.sharp_edge].reshape(-1), minlength=topo.num_vertices)
+        return Counts(
+            topo.num_vertices, topo.num_edges, topo.num_faces, topo.num_half_edges,
+            int(topo.sharp_edge.sum()), int(ends[topo.vertex_type == CORNER].sum()),
+        )  # fmt: skip
+
+
 class AbstractSurfaceScheme(eqx.Module):
     """A stationary linear subdivision scheme for polygon meshes.
 
@@ -71,9 +92,28 @@ class AbstractSurfaceScheme(eqx.Module):
     that they can sit inside other modules and pass through `jax.jit`.
     """
 
+    #: Peak host memory of building a `Refiner`, in bytes per half-edge of the refined
+    #: mesh (topology, stencil tables, refined faces), measured in float64 on meshes of
+    #: 0.1 to 1.5 million half-edges; used to check `memory_budget` before building.
+    bytes_per_half_edge: ClassVar[int] = 400
+
     @abc.abstractmethod
     def level(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> Level:
         """One level of refinement of `topology` (host-side, numpy)."""
+
+    def refined_counts(self, counts: Counts) -> Counts:
+        """The counts after one level (exact, or an upper estimate), without refining.
+
+        The default is a generic estimate (four times the half-edges, plus eight per
+        sharp edge); the built-in schemes give their own.
+        """
+        c = counts
+        half_edges = 4 * c.half_edges + 8 * c.sharp
+        sharp = 2 * c.sharp + c.corner_ends
+        return Counts(
+            c.vertices + c.edges + c.faces + c.half_edges, (half_edges + sharp) // 2,
+            half_edges // 3, half_edges, sharp, c.corner_ends,
+        )  # fmt: skip
 
     def limit(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> LimitStencils:
         """Limit position and tangent stencils at the vertices of `topology`."""

@@ -1,7 +1,10 @@
+from typing import ClassVar
+
 import numpy as np
 
 from ._base import (
     AbstractSurfaceScheme,
+    Counts,
     Level,
     LimitStencils,
     edge_end_rule,
@@ -101,6 +104,15 @@ class CatmullClark(AbstractSurfaceScheme):
     arbitrary topological meshes", Computer-Aided Design 10 (1978); T. DeRose, M. Kass
     and T. Truong, "Subdivision surfaces in character animation", SIGGRAPH 1998.
     """
+
+    bytes_per_half_edge: ClassVar[int] = 400  # measured 360-440
+
+    def refined_counts(self, c: Counts) -> Counts:
+        # Exact: a vertex, edge and face point each; every k-gon becomes k quads.
+        return Counts(
+            c.vertices + c.edges + c.faces, 2 * c.edges + c.half_edges, c.half_edges,
+            4 * c.half_edges, 2 * c.sharp, c.corner_ends,
+        )  # fmt: skip
 
     def level(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> Level:
         topo = topology

@@ -164,6 +164,29 @@ def _read_ply(lines: _Lines):
     return vertices, flat, sizes
 
 
+def _read_text(path, fmt: str) -> str:
+    """The file as text; a clear error for binary PLY and for files that are not text."""
+    data = Path(path).read_bytes()
+    if fmt == "ply":
+        header = data[: data.find(b"end_header")] if b"end_header" in data else data[:4096]
+        for number, line in enumerate(header.splitlines(), start=1):
+            tokens = line.split()
+            if tokens[:1] == [b"format"] and tokens[1:2] != [b"ascii"]:
+                kind = tokens[1].decode("ascii", "replace") if len(tokens) > 1 else "?"
+                raise ValueError(
+                    f"{path}, line {number}: only ASCII PLY is supported, got the {kind} "
+                    "format; convert the file to ASCII PLY, OBJ or OFF (e.g. "
+                    "`trimesh.load(path).export('mesh.obj')`, or MeshLab or Blender)."
+                )
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise ValueError(
+            f"{path}: not a text {fmt.upper()} file (byte {e.start} is not UTF-8 text); "
+            f"read_mesh reads text OBJ, OFF and ASCII PLY files."
+        ) from None
+
+
 def read_mesh(path: str | os.PathLike, format: str | None = None, *, check: bool = True) -> Mesh:
     """Read a polygon mesh from a Wavefront OBJ, OFF or ASCII PLY file.
 
@@ -186,15 +209,24 @@ def read_mesh(path: str | os.PathLike, format: str | None = None, *, check: bool
     **Raises:**
 
     `ValueError` naming the file (and the line, for malformed input), for bad syntax,
-    out-of-range indices, a binary PLY, or (with `check`) a non-manifold mesh.
+    out-of-range indices, non-finite (NaN or infinite) vertex coordinates, a binary PLY
+    or another file that is not UTF-8 text, or (with `check`) a non-manifold mesh.
     """
     fmt = _format(path, format)
-    text = Path(path).read_text()
+    text = _read_text(path, fmt)
     lines = _Lines(path, text, comment="#")
     reader = {"obj": _read_obj, "off": _read_off, "ply": _read_ply}[fmt]
     vertices, flat, sizes = reader(lines)
     faces = pad_faces(np.asarray(flat, np.int64), np.asarray(sizes, np.int64))
     vertices = np.asarray(vertices, np.float64).reshape(-1, 3)
+    finite = np.isfinite(vertices).all(axis=1)
+    if not finite.all():
+        i = int(np.argmin(finite))
+        raise ValueError(
+            f"{path}: vertex {i} has a non-finite coordinate ({vertices[i].tolist()}); a mesh "
+            "needs finite vertex positions (numbers beyond +-1.8e308 read as infinite). Fix "
+            "or remove that vertex."
+        )
     if check:
         try:
             build_topology(faces, len(vertices))

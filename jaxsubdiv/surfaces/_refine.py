@@ -1,13 +1,21 @@
 """Refiners and limit evaluators: topology once on the host, a stencil kernel per call."""
 
+import math
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
-from .._misc import as_float_array, static_int
-from ._base import APPROXIMATE, CORNER_TANGENTS, AbstractSurfaceScheme
+from .._misc import (
+    DEFAULT_MEMORY_BUDGET,
+    as_float_array,
+    checked_budget,
+    format_bytes,
+    static_int,
+)
+from ._base import APPROXIMATE, CORNER_TANGENTS, AbstractSurfaceScheme, Counts
 from ._mesh import Mesh
 from ._stencil import Sparse, StencilTable
 from ._topology import build_topology
@@ -24,6 +32,32 @@ def _check(mesh, scheme) -> None:
             "`scheme` must be a surface scheme: `Loop()`, `CatmullClark()` or "
             f"`DooSabin()`; got {type(scheme).__name__}."
         )
+
+
+#: The most levels a `Refiner` takes: each level multiplies the half-edges by four, so 30
+#: levels make 4^30 (10^18) times as many, beyond any `memory_budget` (at most 2^60
+#: bytes); the bound also keeps a mesh without faces from looping for ever.
+MAX_LEVELS = 30
+
+
+def _check_surface_memory(topo, scheme, levels: int, budget: float) -> None:
+    """Predict the sizes level by level from the counts (nothing is refined) and raise
+    the memory-budget error before anything is built."""
+    base = counts = Counts.of(topo)
+    per = scheme.bytes_per_half_edge
+    for level in range(1, levels + 1):
+        counts = scheme.refined_counts(counts)
+        need = counts.half_edges * per
+        if need > budget:
+            raise ValueError(
+                f"Refiner: {levels} levels of {type(scheme).__name__} on a mesh of "
+                f"{base.faces:,} faces are above memory_budget={budget:,} bytes: level "
+                f"{level} would make about {counts.faces:,} faces and {counts.vertices:,} "
+                f"vertices and need about {format_bytes(need)} for its topology and stencil "
+                f"tables ({per} bytes per half-edge, measured). Use at most {level - 1} "
+                f"level{'' if level == 2 else 's'} here, or raise `memory_budget` (a finite "
+                "number of bytes)."
+            )
 
 
 def _topology(mesh: Mesh, num_vertices: int | None = None):
@@ -60,22 +94,48 @@ class Refiner(eqx.Module):
     scheme: AbstractSurfaceScheme
     levels: int = eqx.field(static=True)
     num_base_vertices: int = eqx.field(static=True)
+    memory_budget: float = eqx.field(static=True)
     _template: Mesh
 
-    def __init__(self, mesh: Mesh, scheme: AbstractSurfaceScheme, levels: int = 1):
+    def __init__(
+        self,
+        mesh: Mesh,
+        scheme: AbstractSurfaceScheme,
+        levels: int = 1,
+        *,
+        memory_budget: float = DEFAULT_MEMORY_BUDGET,
+    ):
         """**Arguments:**
 
         - `mesh`: the base [`jaxsubdiv.surfaces.Mesh`][]. Only its topology (faces,
           tags, number of vertices) is used; its vertex data may be anything.
         - `scheme`: `Loop()`, `CatmullClark()` or `DooSabin()`.
-        - `levels`: number of refinement levels (a Python int, at least 0).
+        - `levels`: number of refinement levels (a Python int, 0 to 30).
+        - `memory_budget`: the most memory, in bytes, the refiner may use (default
+          2 GiB; a finite number > 0). Each level multiplies the faces by about four:
+          before anything is built, the sizes of every level are predicted from the
+          counts of vertices, edges, faces and half-edges (exactly for Loop and
+          Catmull-Clark, an upper estimate for Doo-Sabin near sharp edges), and the
+          building cost estimated at the measured `scheme.bytes_per_half_edge`
+          (Catmull-Clark 400, Loop and Doo-Sabin 200) per half-edge of the refined
+          mesh; above the budget is a `ValueError` naming the most levels that fit.
+          Calls check their output (`batch x N x C` numbers) against it too.
+          Keyword only.
         """
         _check(mesh, scheme)
-        levels = static_int(levels, "levels", minimum=0)
+        levels = static_int(
+            levels,
+            "levels",
+            minimum=0,
+            maximum=MAX_LEVELS,
+            why=" (each level multiplies the faces by about 4)",
+        )
+        memory_budget = checked_budget(memory_budget)
         count = mesh.num_vertices
         faces, creases, corners = mesh.faces, mesh.creases, mesh.corners
         tables = []
         topo = build_topology(faces, count, creases, corners)
+        _check_surface_memory(topo, scheme, levels, memory_budget)
         for level in range(levels):
             if level:
                 topo = build_topology(faces, count, creases, corners)
@@ -87,6 +147,7 @@ class Refiner(eqx.Module):
         self.scheme = scheme
         self.levels = levels
         self.num_base_vertices = mesh.num_vertices
+        self.memory_budget = memory_budget
         self._template = Mesh(np.zeros((count, 0)), faces, creases=creases, corners=corners)
 
     def __call__(self, vertices: Float[ArrayLike, "*batch V C"]) -> Float[Array, "*batch N C"]:
@@ -96,6 +157,15 @@ class Refiner(eqx.Module):
             raise ValueError(
                 f"`vertices` must have shape (..., {self.num_base_vertices}, channels) for "
                 f"this mesh, got {vertices.shape}."
+            )
+        batch = math.prod(vertices.shape[:-2])
+        size = batch * self.num_vertices * vertices.shape[-1] * vertices.dtype.itemsize
+        if size > self.memory_budget:
+            raise ValueError(
+                f"Refiner would return {batch:,} x {self.num_vertices:,} vertices "
+                f"x {vertices.shape[-1]} channels = {format_bytes(size)}, above "
+                f"memory_budget={self.memory_budget:,} bytes. Refine fewer items at a time, "
+                "or build the Refiner with a larger `memory_budget`."
             )
         for table in self.tables:  # `levels` is static: a fixed chain of kernels
             vertices = table(vertices)
@@ -136,7 +206,13 @@ class Refiner(eqx.Module):
         return self._template.num_vertices
 
 
-def refine_mesh(mesh: Mesh, scheme: AbstractSurfaceScheme, levels: int = 1) -> Mesh:
+def refine_mesh(
+    mesh: Mesh,
+    scheme: AbstractSurfaceScheme,
+    levels: int = 1,
+    *,
+    memory_budget: float = DEFAULT_MEMORY_BUDGET,
+) -> Mesh:
     """Refine `mesh` by `levels` levels of `scheme`.
 
     A convenience for `Refiner(mesh, scheme, levels).mesh(mesh.vertices)`: the topology
@@ -148,13 +224,16 @@ def refine_mesh(mesh: Mesh, scheme: AbstractSurfaceScheme, levels: int = 1) -> M
 
     - `mesh`: a [`jaxsubdiv.surfaces.Mesh`][].
     - `scheme`: `Loop()`, `CatmullClark()` or `DooSabin()`.
-    - `levels`: number of levels, a Python int >= 0.
+    - `levels`: number of levels, a Python int from 0 to 30.
+    - `memory_budget`: the most memory, in bytes, refining may use (default 2 GiB), as
+      for [`jaxsubdiv.surfaces.Refiner`][]: checked before anything is built (the
+      cube refined 12 times by Catmull-Clark would need about 150 GiB). Keyword only.
 
     **Returns:**
 
     The refined `Mesh`, with tagged creases and corners carried over.
     """
-    return Refiner(mesh, scheme, levels).mesh(mesh.vertices)
+    return Refiner(mesh, scheme, levels, memory_budget=memory_budget).mesh(mesh.vertices)
 
 
 def _safe_normalize(x: Float[Array, "... 3"]) -> Float[Array, "... 3"]:
