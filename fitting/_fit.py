@@ -14,8 +14,14 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float, Int
 
 import jaxsubdiv as js
-from jaxsubdiv._misc import as_float_array, is_traced, static_int
-from jaxsubdiv._refine import DEFAULT_MEMORY_BUDGET, _min_points
+from jaxsubdiv._misc import (
+    DEFAULT_MEMORY_BUDGET,
+    as_float_array,
+    checked_budget,
+    is_traced,
+    static_int,
+)
+from jaxsubdiv._refine import _min_points
 
 from . import _exported, _progress
 from ._curve import curve_samples, distances, evaluate, locate, safe_norm
@@ -459,13 +465,7 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype) -> int
 
 
 def _check_memory(caller, m, pad_to, n, levels, scheme, boundary, dtype, memory_budget):
-    budget = memory_budget
-    if (isinstance(budget, bool) or not isinstance(budget, (int, float, np.integer, np.floating))
-            or not math.isfinite(budget) or budget <= 0):
-        raise ValueError(
-            f"`{caller}(memory_budget=...)` must be a positive finite number of bytes; got "
-            f"{memory_budget!r}."
-        )
+    budget = checked_budget(memory_budget, f"{caller}(memory_budget=...)")
     need = fit_memory(max(m, pad_to), n, levels, scheme, boundary, dtype)
     if need > budget:
         raise ValueError(

@@ -654,9 +654,9 @@ def test_fit_under_filter_jit():
         # Resources: refused before anything is allocated, with what it would take.
         (dict(levels=19), ValueError, "GiB, above memory_budget=2,147,483,648 bytes"),
         (dict(memory_budget=10**5), ValueError, "above memory_budget=100,000 bytes"),
-        (dict(memory_budget=np.nan), ValueError, "positive finite number of bytes"),
-        (dict(memory_budget=0), ValueError, "positive finite number of bytes"),
-        (dict(memory_budget="2GB"), ValueError, "positive finite number of bytes"),
+        (dict(memory_budget=np.nan), ValueError, "finite number of bytes > 0"),
+        (dict(memory_budget=0), ValueError, "finite number of bytes > 0"),
+        (dict(memory_budget="2GB"), TypeError, "must be a number of bytes"),
         (dict(target=np.tile(blob(100), (61, 1)), ordered=False), ValueError, "limit is 5000"),
         (dict(target=blob(100) * 1e308), ValueError, "spans more than the largest float64"),
     ],
