@@ -7,6 +7,16 @@ uniform B-spline. Fit results are written as JSON that rebuilds the scheme and t
 control polygon. Every problem with a file is an [`jaxsubdiv.io.OutlineError`][] with a
 one-line message that names the file and says what is wrong.
 
+Reading is bounded in memory and time before anything large is allocated: a file may
+have at most `MAX_FILE_BYTES` bytes (64 MiB), `MAX_CONTOURS` contours (10,000) and
+`MAX_POINTS` points in all (about 16.8 million, counting resampled ones); a PNG at most
+`MAX_PIXELS` pixels (25 million), read from its header before it is decoded; an NPY
+array, or the NPZ members read, at most `MAX_ARRAY_BYTES` (256 MiB) as float64 and, for
+NPZ, as declared uncompressed sizes, checked before decompressing. Beyond a limit the
+read fails with an `OutlineError` that gives the size, the limit and what to do. (The
+constants here document the limits; the readers do not read them back, so assigning to
+them changes nothing.)
+
 Coordinates are y-up everywhere; SVG and PNG (y-down) are flipped on the way in and out.
 """
 
@@ -19,8 +29,16 @@ from jaxtyping import ArrayLike, Float
 
 from ._io.common import (
     DEFAULT_SAMPLES as DEFAULT_SAMPLES,
+    MAX_ARRAY_BYTES as MAX_ARRAY_BYTES,
+    MAX_CONTOURS as MAX_CONTOURS,
+    MAX_FILE_BYTES as MAX_FILE_BYTES,
+    MAX_PIXELS as MAX_PIXELS,
+    MAX_POINTS as MAX_POINTS,
     Outline as Outline,
     OutlineError as OutlineError,
+    check_contours,
+    check_path,
+    check_points,
     check_samples,
     fail,
     make_outline,
@@ -111,10 +129,15 @@ def read_outlines(
       transparency) between 0 and 1 that separates the silhouette from the background.
       Which side is the background is decided by the image border.
 
-    **Returns:** a list of [`jaxsubdiv.io.Outline`][] (`points` `(m, 2)` and `closed`).
+    **Returns:** a list of [`jaxsubdiv.io.Outline`][] (`points` `(m, 2)` and `closed`),
+    at least one.
 
     **Raises:** [`jaxsubdiv.io.OutlineError`][] for a missing, unreadable, empty or
-    malformed file, with the file (and line) and the problem in one line.
+    malformed file, one with no contours, or one beyond a limit of this module
+    (`MAX_FILE_BYTES`, `MAX_CONTOURS`, `MAX_POINTS`, `MAX_PIXELS`, `MAX_ARRAY_BYTES`;
+    a JSON file nested deeper than Python's recursion limit; a text of more than
+    `MAX_CONTOURS` characters), with the file (and line) and the problem in one line.
+    `ValueError` or `TypeError` for a bad argument (`samples` above `MAX_POINTS`, ...).
     """
     samples = check_samples(samples)
     if text is not None:
@@ -123,13 +146,14 @@ def read_outlines(
         return read_glyph(text, font=font, samples=samples)
     if path is None:
         raise ValueError("pass a file `path`, or `text=` for a glyph.")
+    check_path(path)
     if font is not None:
         raise ValueError("`font` is only used with `text=`.")
     kind = _kind(path, kind, KINDS)
     if kind == "svg":
-        return read_svg(path, samples)
+        return _at_least_one(path, read_svg(path, samples))
     if kind == "png":
-        return read_image(path, threshold=threshold, samples=samples)
+        return _at_least_one(path, read_image(path, threshold=threshold, samples=samples))
     reader = {
         "csv": read_table,
         "txt": read_table,
@@ -138,11 +162,22 @@ def read_outlines(
         "json": read_json,
     }[kind]
     outlines = reader(path)
+    check_contours(path, len(outlines))
     if samples is not None:
+        check_points(path, samples * len(outlines))
         outlines = [
             Outline(resample_polyline(o.points, samples, o.closed), o.closed) for o in outlines
         ]
     return outlines
+
+
+def _at_least_one(path, outlines: list[Outline]) -> list[Outline]:
+    check_contours(path, len(outlines))
+    return outlines
+
+
+def _is_array(value) -> bool:
+    return hasattr(value, "shape") and hasattr(value, "dtype")
 
 
 def write_outlines(
@@ -161,16 +196,33 @@ def write_outlines(
     **Arguments:**
 
     - `path`: the file; the format comes from its extension unless `kind` is given.
-    - `outlines`: a list of [`jaxsubdiv.io.Outline`][].
+    - `outlines`: a list of [`jaxsubdiv.io.Outline`][] and `(m, 2)` arrays (NumPy, JAX or
+      nested lists); an array is a closed outline, as `Outline(points)`. A single
+      `Outline` or `(m, 2)` array is one outline.
     - `kind`: the format, overriding the extension.
+
+    **Raises:** `TypeError` if `outlines` is not a list (or other sequence) of them;
+    `ValueError` if it is empty; [`jaxsubdiv.io.OutlineError`][] for points that are
+    not a finite `(m, 2)` array of at least 2 points (naming the file and the outline)
+    or a file that cannot be written.
     """
+    check_path(path)
     kind = _kind(path, kind, _WRITABLE)
-    if isinstance(outlines, Outline):
+    if isinstance(outlines, Outline) or _is_array(outlines):
         outlines = [outlines]
+    elif isinstance(outlines, (str, bytes, dict)) or not hasattr(outlines, "__iter__"):
+        raise TypeError(
+            "`outlines` must be a list of Outline or (m, 2) arrays, got "
+            f"{type(outlines).__name__}."
+        )
+    outlines = list(outlines)
     if not outlines:
         raise ValueError("`outlines` is empty: nothing to write.")
     outlines = [
-        make_outline(path, o.points, o.closed, f"outline {i}") for i, o in enumerate(outlines)
+        make_outline(path, o.points, o.closed, f"outline {i}")
+        if isinstance(o, Outline)
+        else make_outline(path, o, True, f"outline {i}")
+        for i, o in enumerate(outlines)
     ]
     if kind in ("csv", "txt"):
         write_table(path, outlines, kind)
@@ -195,7 +247,9 @@ def write_points(
 
     Shorthand for `write_outlines(path, [Outline(points, closed)], kind=kind)`.
     """
-    write_outlines(path, [Outline(np.asarray(points, dtype=np.float64), closed)], kind=kind)
+    if not isinstance(closed, (bool, np.bool_)):
+        raise TypeError(f"`closed` must be True or False, got {closed!r}.")
+    write_outlines(path, [Outline(points, bool(closed))], kind=kind)
 
 
 def write_curve_svg(
@@ -227,15 +281,16 @@ def write_curve_svg(
     **Returns:** True when the file holds the exact curve (Bezier segments), False for
     a polyline.
     """
+    check_path(path)
     points = make_outline(path, control_points, False, "the control points").points
     if boundary not in ("closed", "open", "clamped"):
         raise ValueError(f"`boundary` must be 'closed', 'open' or 'clamped', got {boundary!r}.")
     degree = bspline_degree(scheme)
     minimum = {1: 2, 2: 3, 3: 4}.get(degree, 0) if boundary == "open" else 2
     if degree is not None and len(points) >= minimum:
-        write_bezier_svg(
-            path, bezier_segments(points, degree, boundary), None, boundary == "closed"
-        )
+        with np.errstate(over="ignore", invalid="ignore"):  # checked by write_bezier_svg
+            beziers = bezier_segments(points, degree, boundary)
+        write_bezier_svg(path, beziers, None, boundary == "closed")
         return True
     curve = dense_curve(points, scheme, boundary, levels)
     write_bezier_svg(path, None, curve, boundary == "closed")
@@ -257,6 +312,7 @@ def write_result_json(path: str | os.PathLike, result, *, info: dict | None = No
       dict of numbers) and anything else JSON can hold (saved under `info`).
     - `info`: more JSON values to save, such as the run's input file and options.
     """
+    check_path(path)
     _write_result(path, result, info=info)
 
 
@@ -266,4 +322,5 @@ def read_result_json(path: str | os.PathLike) -> SavedResult:
     **Returns:** a [`jaxsubdiv.io.SavedResult`][] with the rebuilt scheme, the control
     points, boundary, levels, errors and the other saved information.
     """
+    check_path(path)
     return _read_result(path)

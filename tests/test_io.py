@@ -5,7 +5,11 @@ the Bernstein form of a Bezier curve, SVG's own definitions of S, T and transfor
 the B-spline parametrization of the limit curve, and from `jaxsubdiv.limit_points`.
 """
 
+import io
 import re
+import struct
+import zipfile
+import zlib
 
 import matplotlib.image
 import numpy as np
@@ -13,6 +17,7 @@ import pytest
 
 import jaxsubdiv as js
 import jaxsubdiv.io as jio
+from jaxsubdiv._io import common, raster
 
 
 POLYGON = np.array([[0.0, 0.0], [1.0, -0.1], [1.7, 0.6], [1.1, 1.3], [0.2, 1.1], [-0.4, 0.5]])
@@ -567,7 +572,7 @@ def test_more_errors(tmp_path):
         jio.read_outlines(text="  ")
     with pytest.raises(jio.OutlineError, match="a .npy file holds one outline"):
         jio.write_outlines(tmp_path / "two.npy", [jio.Outline(POLYGON), jio.Outline(OPEN)])
-    with pytest.raises(jio.OutlineError, match="contain NaN"):
+    with pytest.raises(jio.OutlineError, match="must not contain NaN"):
         jio.write_points(tmp_path / "nan.csv", [[0, 0], [np.nan, 1]])
     blank = np.ones((10, 10))
     matplotlib.image.imsave(tmp_path / "blank.png", blank, cmap="gray", vmin=0, vmax=1)
@@ -586,3 +591,395 @@ def test_more_errors(tmp_path):
         jio.read_outlines(tmp_path / "a.csv", samples=2)
     with pytest.raises(ValueError, match="`threshold` must be between 0 and 1"):
         jio.read_outlines(tmp_path / "blank.png", threshold=1.5)
+
+
+# --- hostile input and resource limits -----------------------------------------------
+# Each hostile file is built here in a few KB: a header that claims a huge size, a
+# corrupt byte, a deep nesting. Every one must give one OutlineError line that names the
+# file and the problem, quickly and without allocating what it claims.
+
+
+def _npy_header(shape, descr="<f8") -> bytes:
+    out = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        out, {"descr": descr, "fortran_order": False, "shape": shape}
+    )
+    return out.getvalue()
+
+
+def _npy(array) -> bytes:
+    out = io.BytesIO()
+    np.save(out, np.asarray(array), allow_pickle=False)
+    return out.getvalue()
+
+
+def _zip(members: dict, method=zipfile.ZIP_DEFLATED) -> bytes:
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w", method) as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    return out.getvalue()
+
+
+def _npz_declaring(size: int) -> bytes:
+    """A small archive whose member declares `size` uncompressed bytes (a zip bomb's
+    central directory), in the local header and the central directory."""
+    data = bytearray(_zip({"points.npy": _npy(np.zeros((100, 2)))}))
+    struct.pack_into("<I", data, 22, size)
+    struct.pack_into("<I", data, data.rfind(b"PK\x01\x02") + 24, size)
+    return bytes(data)
+
+
+def _npz_corrupt_deflate() -> bytes:
+    data = bytearray(_zip({"points.npy": _npy(np.random.default_rng(0).random((200, 2)))}))
+    data[100:110] = b"\xff" * 10  # inside the compressed stream
+    return bytes(data)
+
+
+def _npz_bad_crc() -> bytes:
+    data = bytearray(_zip({"points.npy": _npy(POLYGON)}, zipfile.ZIP_STORED))
+    data[-200] ^= 0xFF  # a byte of the stored array
+    return bytes(data)
+
+
+def _npz_encrypted() -> bytes:
+    data = bytearray(_zip({"points.npy": _npy(POLYGON)}))
+    struct.pack_into("<H", data, 6, 1)  # the "encrypted" flag bit
+    struct.pack_into("<H", data, data.rfind(b"PK\x01\x02") + 8, 1)
+    return bytes(data)
+
+
+def _png_header(width: int, height: int, color: int = 0) -> bytes:
+    """A PNG that claims `width` x `height` pixels; a few rows of zlib-compressed zeros."""
+
+    def chunk(kind, data):
+        crc = struct.pack(">I", zlib.crc32(kind + data))
+        return struct.pack(">I", len(data)) + kind + data + crc
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, color, 0, 0, 0)
+    rows = zlib.compress(bytes((1 + width * (3 if color == 2 else 1)) * 4))
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", rows) + chunk(b"IEND", b"")
+
+
+def _png_dots(count: int) -> bytes:
+    """A white image with `count` x `count` black 2 x 2 dots: as many equal blobs."""
+    image = np.ones((3 * count + 1, 3 * count + 1))
+    for i in (1, 2):
+        for j in (1, 2):
+            image[i::3, j::3] = 0
+    out = io.BytesIO()
+    matplotlib.image.imsave(out, image, cmap="gray", vmin=0, vmax=1, format="png")
+    return out.getvalue()
+
+
+_TRIANGLE = "M 0 0 L 1 0 L 1 1 Z"
+
+HOSTILE = [
+    # JSON: numbers past float64, nesting past the recursion limit, no contours
+    ("digits.json", b"[[0, 0], [1, " + b"9" * 400 + b"], [1, 1]]", "too large for a float64"),
+    ("digits_5000.json", b"[[0, 0], [1, " + b"9" * 5000 + b"]]", "too large for a float64"),
+    ("nan.json", b"[[0, 0], [1, NaN], [1, 1]]", "not finite"),
+    ("deep.json", b"[" * 200_000 + b"]" * 200_000, "nests lists or objects too deeply"),
+    ("empty.json", b'{"outlines": []}', "has no contours"),
+    (
+        "many.json",
+        b'{"outlines": [' + b",".join([b"[[0,0],[1,1]]"] * 10_001) + b"]}",
+        "10,001 contours, more than the limit of 10,000",
+    ),
+    (
+        "long_pair.json",
+        b'{"points": [[0, 0], [' + b"1," * 50_000 + b"1]]}",
+        "must be a pair [x, y]",
+    ),
+    # CSV: long lines are quoted short; too many contours
+    ("long_line.csv", b"0,0\n" + b"1 " * 50_000 + b"\n", "expected 2 values (x, y), got 50000"),
+    ("blocks.csv", b"0,0\n1,1\n\n" * 10_001, "more contours than the limit of 10,000"),
+    # SVG: numbers and transforms that do not fit a float64, arcs out of range, no contours
+    ("no_contours.svg", _svg('<path d="M 0 0"/><circle r="1"/>').encode(), "has no contours"),
+    (
+        "rotate.svg",
+        _svg(f'<path d="{_TRIANGLE}" transform="rotate(1e400)"/>').encode(),
+        "bad transform rotate('1e400'): a number is not finite",
+    ),
+    (
+        "skew.svg",
+        _svg(f'<path d="{_TRIANGLE}" transform="skewX(inf)"/>').encode(),
+        "bad transform skewX('inf')",
+    ),
+    (
+        "number.svg",
+        _svg('<path d="M 0 0 L 1e999 0 L 1 1 Z"/>').encode(),
+        "'1e999' is too large for a float64",
+    ),
+    (
+        "scale.svg",
+        _svg(
+            f'<g transform="scale(1e300)"><path d="{_TRIANGLE}" transform="scale(1e300)"/></g>'
+        ).encode(),
+        "contour 0: its coordinates overflow a float64",
+    ),
+    (
+        "arc.svg",
+        _svg('<path d="M 0 0 A 1e-308 1e-308 0 0 1 1e308 1e308"/>').encode(),
+        "the arc cannot be computed in float64",
+    ),
+    (
+        "points.svg",
+        _svg('<polygon points="' + "1,2 " * 20_000 + 'x"/>').encode(),
+        "has a non-numeric value in points='1,2 1,2",
+    ),
+    (
+        "paths.svg",
+        _svg(f'<path d="{_TRIANGLE}"/>' * 10_001).encode(),
+        "more contours than the limit",
+    ),
+    # NPY: headers that claim more than the file holds, bad headers, no contours
+    (
+        "claims.npy",
+        _npy_header((10**10, 2)) + bytes(64),
+        "the array claims shape (10000000000, 2) (149 GiB) but holds only 64 bytes",
+    ),
+    ("claims_2_62.npy", _npy_header((2**62, 2**62)) + bytes(64), "truncated or corrupt"),
+    ("bad_header.npy", b"\x93NUMPY\x01\x00\x10\x00{'descr': 'xxxx\n", "not a readable .npy file"),
+    ("version.npy", b"\x93NUMPY\x09\x00" + bytes(100), "unsupported format version"),
+    ("objects.npy", _npy_header((3, 2), "|O") + bytes(48), "holds values of type object"),
+    ("empty_stack.npy", _npy_header((0, 5, 2)), "has no contours"),
+    ("negative.npy", _npy_header((-1, 2)) + bytes(64), "has shape (-1, 2), not (m, 2)"),
+    ("stack.npy", _npy_header((10_001, 2, 2), "|i1") + bytes(40_004), "10,001 contours"),
+    # NPZ: corrupt members, a declared size past the limit (a zip bomb), odd members
+    ("corrupt.npz", _npz_corrupt_deflate, "member 'points' is corrupt"),
+    ("crc.npz", _npz_bad_crc, "member 'points' is corrupt (BadZipFile: Bad CRC-32"),
+    (
+        "bomb.npz",
+        lambda: _npz_declaring(0xFFFF_FFF0),
+        "its arrays are 4 GiB uncompressed, more than the 256 MiB limit",
+    ),
+    (
+        "claims.npz",
+        lambda: _zip({"points.npy": _npy_header((2**28, 2)) + bytes(4096)}),
+        "member 'points' claims shape (268435456, 2) (4 GiB)",
+    ),
+    (
+        "bzip2.npz",
+        lambda: _zip({"points.npy": _npy(POLYGON)}, zipfile.ZIP_BZIP2),
+        "uses zip compression method 12",
+    ),
+    ("encrypted.npz", _npz_encrypted, "member 'points' is encrypted"),
+    ("text.npz", lambda: _zip({"points": b"hello"}), "member 'points' is not a NumPy array"),
+    ("npy.npz", lambda: _npy(POLYGON), "is a .npy file, not a .npz archive"),
+    # PNG: sizes from the header, refused before decoding; noise with too many blobs
+    (
+        "huge.png",
+        lambda: _png_header(30_000, 30_000),
+        "30,000 x 30,000 = 900,000,000 pixels, more than the limit of 25,000,000 "
+        "(jaxsubdiv.io.MAX_PIXELS); scale the image down",
+    ),
+    (
+        "huge_rgb.png",
+        lambda: _png_header(12_000, 12_000, color=2),
+        "12,000 x 12,000 = 144,000,000 pixels",
+    ),
+    ("jpeg.png", b"\xff\xd8\xff\xe0" + bytes(100), "not a readable PNG image"),
+    (
+        "dots.png",
+        lambda: _png_dots(101),
+        "10,201 contours, more than the limit of 10,000 (jaxsubdiv.io.MAX_CONTOURS); blur, "
+        "threshold or scale down the image",
+    ),
+]
+
+
+@pytest.mark.parametrize("name, content, words", HOSTILE, ids=[h[0] for h in HOSTILE])
+def test_hostile_files_get_one_line(tmp_path, name, content, words):
+    path = tmp_path / name
+    path.write_bytes(content() if callable(content) else content)
+    with pytest.raises(jio.OutlineError) as info:
+        jio.read_outlines(path)
+    text = str(info.value)
+    assert text.startswith(str(path)), text
+    assert words in text, text
+    assert "\n" not in text and len(text) < 400, text
+
+
+def test_deep_svg_groups_are_read(tmp_path):
+    path = tmp_path / "deep.svg"
+    depth = 5000  # deeper than Python's recursion limit
+    groups = '<g transform="translate(1, 0)">' * depth + f'<path d="{_TRIANGLE}"/>' + "</g>" * depth
+    path.write_text(_svg(groups))
+    (outline,) = jio.read_outlines(path)
+    np.testing.assert_array_equal(outline.points, [[depth, 0], [depth + 1, 0], [depth + 1, -1]])
+
+
+def test_svg_arcs_at_the_edge_of_float64(tmp_path):
+    # End points 1e-300 apart: the squares in the specification's formulas underflow,
+    # and the angles round to equal; the large arc is still the whole unit circle.
+    path = _write(tmp_path, "tiny.svg", _svg('<path d="M 0 0 A 1 1 0 1 1 1e-300 0"/>'))
+    (outline,) = jio.read_outlines(path, samples=64)
+    np.testing.assert_allclose(np.ptp(outline.points, axis=0), [2, 2], atol=0.01)
+    center = np.array([0.0, np.sign(outline.points[:, 1].mean())])
+    np.testing.assert_allclose(np.hypot(*(outline.points - center).T), 1, atol=1e-9)
+    # Radii of 1e308 for a chord of 1.4: the center form loses the end points; the arc
+    # is its chord to float64's precision.
+    path = _write(tmp_path, "flat.svg", _svg('<path d="M 0 0 A 1e308 1e308 0 0 1 1 1"/>'))
+    (outline,) = jio.read_outlines(path, samples=5)
+    np.testing.assert_allclose(outline.points, np.linspace([0, 0], [1, -1], 5), atol=1e-12)
+
+
+def test_text_without_visible_characters():
+    for text in ["\u200b", " \u200b "]:
+        with pytest.raises(jio.OutlineError, match="no visible characters"):
+            jio.read_outlines(text=text)
+    with pytest.raises(jio.OutlineError, match="lone surrogate"):
+        jio.read_outlines(text="a\ud800")
+    with pytest.raises(jio.OutlineError, match="10,001 characters, more than the limit"):
+        jio.read_outlines(text="a" * 10_001)
+    with pytest.raises(TypeError, match="`text` must be a string"):
+        jio.read_outlines(text=5)
+
+
+def test_write_outlines_takes_arrays(tmp_path):
+    triangle = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])
+    path = tmp_path / "arrays.json"
+    jio.write_outlines(path, [triangle, jio.Outline(OPEN, False), triangle.tolist()])
+    back = jio.read_outlines(path)
+    assert [o.closed for o in back] == [True, False, True]
+    np.testing.assert_array_equal(back[0].points, triangle)
+    jio.write_outlines(path, triangle)  # one bare (m, 2) array: one outline
+    np.testing.assert_array_equal(jio.read_outlines(path)[0].points, triangle)
+    for bad in ["abc", None, {"points": triangle}]:
+        with pytest.raises(TypeError, match="`outlines` must be a list of Outline or"):
+            jio.write_outlines(path, bad)
+    with pytest.raises(jio.OutlineError, match=r"outline 1 must have shape \(m, 2\)"):
+        jio.write_outlines(path, [triangle, np.zeros((3, 3))])
+
+
+def test_writers_at_the_edge_of_float64(tmp_path):
+    huge = np.array([[-1e308, 0.0], [1e308, 1e308], [0.0, -1e308]])
+    jio.write_points(tmp_path / "huge.svg", huge)
+    text = (tmp_path / "huge.svg").read_text()
+    assert "inf" not in text and "nan" not in text
+    np.testing.assert_array_equal(jio.read_outlines(tmp_path / "huge.svg")[0].points, huge)
+    with pytest.raises(jio.OutlineError, match="the curve's coordinates overflow a float64"):
+        jio.write_curve_svg(tmp_path / "curve.svg", np.vstack([huge, [1, 1]]), js.CubicBSpline())
+
+
+def test_result_json_bad_parameters_and_info(tmp_path):
+    head = '{"format": "jaxsubdiv.result", "version": 1, "control_points": [[0, 0], [1, 1]], '
+    scheme = '"scheme": {"type": "CubicBSpline", "parameters": [1]}}'
+    path = _write(tmp_path, "r.json", head + scheme)
+    with pytest.raises(jio.OutlineError, match=r'"scheme"\["parameters"\] must be an object'):
+        jio.read_result_json(path)
+    path = _write(tmp_path, "r.json", head + '"scheme": {"type": "CubicBSpline"}, "info": [1]}')
+    with pytest.raises(jio.OutlineError, match='"info" must be an object'):
+        jio.read_result_json(path)
+
+
+# Each limit: a file just inside it reads, one just past it is refused (the limits are
+# lowered so that the files stay small).
+
+
+def test_limit_file_bytes(tmp_path, monkeypatch):
+    path = _write(tmp_path, "points.csv", "0,0\n1,0\n1,1\n")
+    monkeypatch.setattr(common, "MAX_FILE_BYTES", path.stat().st_size)
+    assert len(jio.read_outlines(path)) == 1
+    monkeypatch.setattr(common, "MAX_FILE_BYTES", path.stat().st_size - 1)
+    with pytest.raises(jio.OutlineError, match=r"the file is 12 bytes, more than the 11 bytes"):
+        jio.read_outlines(path)
+
+
+def test_limit_array_bytes(tmp_path, monkeypatch):
+    np.save(tmp_path / "p.npy", POLYGON)  # 6 x 2 float64: 96 bytes
+    monkeypatch.setattr(common, "MAX_ARRAY_BYTES", 96)
+    assert len(jio.read_outlines(tmp_path / "p.npy")) == 1
+    monkeypatch.setattr(common, "MAX_ARRAY_BYTES", 95)
+    with pytest.raises(jio.OutlineError, match=r"96 bytes as float64, more than the 95 bytes"):
+        jio.read_outlines(tmp_path / "p.npy")
+    # An int8 array is limited by its size as float64, 8 times its size in the file.
+    np.save(tmp_path / "small.npy", np.zeros((6, 2), np.int8) + np.arange(6)[:, None])
+    with pytest.raises(jio.OutlineError, match="MAX_ARRAY_BYTES"):
+        jio.read_outlines(tmp_path / "small.npy")
+
+
+def test_limit_npz_declared_size(tmp_path, monkeypatch):
+    jio.write_outlines(tmp_path / "p.npz", [jio.Outline(POLYGON), jio.Outline(OPEN, False)])
+    with zipfile.ZipFile(tmp_path / "p.npz") as archive:
+        declared = sum(info.file_size for info in archive.infolist())
+    monkeypatch.setattr(common, "MAX_ARRAY_BYTES", declared)
+    assert len(jio.read_outlines(tmp_path / "p.npz")) == 2
+    monkeypatch.setattr(common, "MAX_ARRAY_BYTES", declared - 1)
+    with pytest.raises(jio.OutlineError, match="uncompressed, more than the"):
+        jio.read_outlines(tmp_path / "p.npz")
+
+
+def test_limit_pixels(tmp_path, monkeypatch):
+    path = tmp_path / "disk.png"
+    matplotlib.image.imsave(path, _disk_image(20, 30, (10, 15), 6, 0.0, 1.0), cmap="gray")
+    monkeypatch.setattr(common, "MAX_PIXELS", 600)
+    assert len(jio.read_outlines(path)) == 1
+    monkeypatch.setattr(common, "MAX_PIXELS", 599)
+    with pytest.raises(jio.OutlineError, match=r"30 x 20 = 600 pixels, more than the limit of 599"):
+        jio.read_outlines(path)
+
+
+def test_limit_contours_and_points(tmp_path, monkeypatch):
+    path = _write(tmp_path, "three.csv", "0,0\n1,1\n\n0,0\n1,1\n\n0,0\n1,1\n")
+    monkeypatch.setattr(common, "MAX_CONTOURS", 3)
+    assert len(jio.read_outlines(path)) == 3
+    monkeypatch.setattr(common, "MAX_POINTS", 30)
+    assert len(jio.read_outlines(path, samples=10)) == 3
+    with pytest.raises(jio.OutlineError, match="33 points, more than the limit of 30"):
+        jio.read_outlines(path, samples=11)
+    with pytest.raises(ValueError, match="`samples` must be at most 30"):
+        jio.read_outlines(path, samples=31)
+    monkeypatch.setattr(common, "MAX_CONTOURS", 2)
+    with pytest.raises(jio.OutlineError, match="more contours than the limit of 2"):
+        jio.read_outlines(path)
+
+
+def test_png_dots_read_fast_with_the_same_nesting(tmp_path):
+    # 400 equal blobs, all kept: every pair used to be tested (4 s); the result must be
+    # the one the pairwise even-odd test gives.
+    path = tmp_path / "dots.png"
+    path.write_bytes(_png_dots(20))
+    outlines = jio.read_outlines(path)
+    assert len(outlines) == 400
+    assert all(len(o.points) == 8 for o in outlines)  # the contour of a 2 x 2 dot
+
+
+def test_nesting_depths_match_the_pairwise_test():
+    rng = np.random.default_rng(0)
+    loops = []
+    for _ in range(60):  # random star-shaped loops, some nested, some overlapping
+        center, radius = rng.uniform(0, 10, 2), rng.uniform(0.2, 6)
+        angles = np.sort(rng.uniform(0, 2 * np.pi, rng.integers(3, 40)))
+        r = radius * rng.uniform(0.5, 1, len(angles))
+        loops.append(center + np.stack([r * np.cos(angles), r * np.sin(angles)], axis=-1))
+    loops.append(np.array([[0.0, 0], [4, 0], [4, 4], [0, 4]]))  # first points on edges
+    loops.append(np.array([[4.0, 2], [6, 2], [6, 3]]))
+    expected = [
+        sum(raster._inside(p[0], q) for j, q in enumerate(loops) if j != i)
+        for i, p in enumerate(loops)
+    ]
+    np.testing.assert_array_equal(raster._depths(loops), expected)
+    points = rng.uniform(-1, 11, (500, 2))
+    for q in loops[:10]:
+        np.testing.assert_array_equal(
+            raster._inside_all(points, q, pairs=7), [raster._inside(p, q) for p in points]
+        )
+
+
+@pytest.mark.parametrize(
+    "call, error, words",
+    [
+        (lambda p: jio.read_outlines(123), TypeError, "`path` must be a file path"),
+        (lambda p: jio.read_outlines(p / "a.png", threshold="x"), TypeError, "`threshold`"),
+        (lambda p: jio.read_outlines(text="a", font=5), TypeError, "`font` must be"),
+        (lambda p: jio.write_outlines(5, [POLYGON]), TypeError, "`path` must be a file path"),
+        (lambda p: jio.write_points(p / "a.csv", POLYGON, closed="no"), TypeError, "`closed`"),
+        (lambda p: jio.read_result_json(None), TypeError, "`path` must be a file path"),
+        (lambda p: jio.write_points(p / "a.csv", "abc"), jio.OutlineError, "outline 0 must be"),
+    ],
+)
+def test_bad_arguments_are_named(tmp_path, call, error, words):
+    with pytest.raises(error, match=re.escape(words)):
+        call(tmp_path)

@@ -13,6 +13,37 @@ from jaxtyping import Float
 #: caller gave no `samples`.
 DEFAULT_SAMPLES = 400
 
+# Resource limits (re-exported by `jaxsubdiv.io`, which documents them). Every reader
+# checks them before it allocates what they bound, and refuses with an `OutlineError`
+# that names the file, the size, the limit and the fix. The readers look them up here
+# when they run (the tests lower them to build files just inside and just outside).
+
+#: The largest input file, in bytes (64 MiB), checked before it is read. Parsing a text
+#: format (CSV, JSON, SVG) takes up to about 12 times the file's size in memory
+#: (measured: 7x for CSV, 5x for JSON, 12x for SVG path data) and about 20 s per
+#: million SVG path segments.
+MAX_FILE_BYTES = 64 * 1024**2
+
+#: The most contours one input may give (10,000): CSV blocks, JSON outlines, NPY/NPZ
+#: arrays, SVG subpaths, PNG contours, glyph contours (and characters of a text).
+MAX_CONTOURS = 10_000
+
+#: The most points one read may return in all (2**24, about 16.8 million: 256 MiB as
+#: float64), counting `samples` per contour when the outlines are resampled.
+MAX_POINTS = 2**24
+
+#: The largest array data, in bytes, an NPY file or the NPZ members read may hold as
+#: float64 (256 MiB); for NPZ also the members' declared uncompressed size, checked
+#: before anything is decompressed.
+MAX_ARRAY_BYTES = 256 * 1024**2
+
+#: The largest PNG image, in pixels (25 million, e.g. 5000 x 5000), checked on the
+#: image's header before it is decoded. Measured peak memory of a read (ru_maxrss, 3000 x
+#: 3000 images): 30 bytes per pixel gray or RGBA, 44 RGB, 48 palette, 46 for 50% random
+#: noise, 70 for a one-pixel checkerboard (the most contour points), so at most about
+#: 1.75 GB, under `jaxsubdiv.DEFAULT_MEMORY_BUDGET` (2 GiB).
+MAX_PIXELS = 25_000_000
+
 
 class OutlineError(ValueError):
     """An input or output file that cannot be used, with a one-line message for people.
@@ -37,28 +68,96 @@ class Outline(eqx.Module):
     closed: bool = eqx.field(static=True, default=True)
 
 
+def check_path(path, name: str = "path") -> None:
+    """A `TypeError` naming the argument unless `path` is a file path."""
+    if not isinstance(path, (str, bytes, os.PathLike)):
+        raise TypeError(
+            f"`{name}` must be a file path (str or os.PathLike), got {type(path).__name__}."
+        )
+
+
 def name_of(path) -> str:
-    return os.fspath(path)
+    name = os.fspath(path)
+    if isinstance(name, bytes):
+        name = os.fsdecode(name)
+    return name if name.isprintable() else repr(name)
+
+
+def one_line(text, width: int = 200) -> str:
+    """`text` on one line, cut to about `width` characters: safe to put in a message."""
+    text = " ".join(str(text).splitlines())
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+def quote(text, width: int = 40) -> str:
+    """`repr(text)`, cut to about `width` characters (for quoting a file's content)."""
+    text = str(text)
+    return repr(text) if len(text) <= width else repr(text[: width - 3]) + "..."
+
+
+def size_text(count: int) -> str:
+    """A byte count for people: 149 GiB, 12.5 MiB, 300 bytes."""
+    for unit, size in (("GiB", 1024**3), ("MiB", 1024**2), ("KiB", 1024)):
+        if count >= size:
+            return f"{count / size:.3g} {unit}"
+    return f"{count} bytes"
 
 
 def fail(path, message: str, line: int | None = None) -> OutlineError:
     where = name_of(path) if line is None else f"{name_of(path)}, line {line}"
-    return OutlineError(f"{where}: {message}")
+    return OutlineError(f"{where}: {one_line(message, 500)}")
 
 
 def read_bytes(path) -> bytes:
-    """The file's contents, with missing, unreadable and empty files as `OutlineError`."""
+    """The file's contents, with missing, unreadable, empty and too large files (more
+    than `MAX_FILE_BYTES`, checked before reading) as `OutlineError`."""
+    limit = MAX_FILE_BYTES
     try:
-        data = Path(path).read_bytes()
+        with Path(path).open("rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            # st_size is 0 for pipes and devices: read at most one byte past the limit.
+            data = b"" if size > limit else f.read(limit + 1)
     except FileNotFoundError:
         raise fail(path, "no such file.") from None
     except IsADirectoryError:
         raise fail(path, "is a directory, not a file.") from None
     except OSError as e:
         raise fail(path, f"cannot read the file ({e.strerror or e}).") from None
+    except ValueError as e:  # a NUL character in the name
+        raise fail(path, f"cannot open the file ({e}).") from None
+    if size > limit or len(data) > limit:
+        raise fail(
+            path,
+            f"the file is {size_text(size) if size > limit else 'over ' + size_text(limit)}, "
+            f"more than the {size_text(limit)} limit for an input file "
+            "(jaxsubdiv.io.MAX_FILE_BYTES); thin out or split the data.",
+        )
     if not data.strip():
         raise fail(path, "the file is empty.")
     return data
+
+
+def check_contours(path, count: int, fix: str = "split the file", counted: bool = True) -> None:
+    """Refuse an input with more than `MAX_CONTOURS` contours, or none. A reader that
+    stops counting past the limit says `counted=False`."""
+    if count == 0:
+        raise fail(path, "has no contours: there is no outline to read.")
+    if count > MAX_CONTOURS:
+        many = f"{count:,} contours, more" if counted else "more contours"
+        raise fail(
+            path,
+            f"has {many} than the limit of {MAX_CONTOURS:,} (jaxsubdiv.io.MAX_CONTOURS); {fix}.",
+        )
+
+
+def check_points(path, count: int, what: str = "the outlines") -> None:
+    """Refuse a read that would return more than `MAX_POINTS` points in all."""
+    if count > MAX_POINTS:
+        raise fail(
+            path,
+            f"{what} would have {count:,} points, more than the limit of {MAX_POINTS:,} "
+            "(jaxsubdiv.io.MAX_POINTS); ask for fewer `samples` or split the file.",
+        )
 
 
 def read_text(path) -> str:
@@ -78,7 +177,10 @@ def open_for_writing(path):
 
 def checked_points(path, points, what: str = "the points") -> np.ndarray:
     """`points` as a finite float64 `(m, 2)` array with m >= 2, else `OutlineError`."""
-    array = np.asarray(points)
+    try:
+        array = np.asarray(points)
+    except (TypeError, ValueError, OverflowError):
+        raise fail(path, f"{what} must be an (m, 2) array of real numbers.") from None
     if array.dtype == object or not (
         np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)
     ):
@@ -89,7 +191,7 @@ def checked_points(path, points, what: str = "the points") -> np.ndarray:
         raise fail(path, f"{what} must have at least 2 points, got {len(array)}.")
     array = array.astype(np.float64)
     if not np.all(np.isfinite(array)):
-        raise fail(path, f"{what} contain NaN or infinite values.")
+        raise fail(path, f"{what} must not contain NaN or infinite values.")
     return array
 
 
@@ -136,4 +238,8 @@ def check_samples(samples) -> int | None:
         raise TypeError(f"`samples` must be an int or None, got {samples!r}.")
     if samples < 3:
         raise ValueError(f"`samples` must be at least 3 points per contour, got {samples}.")
+    if samples > MAX_POINTS:
+        raise ValueError(
+            f"`samples` must be at most {MAX_POINTS:,} (jaxsubdiv.io.MAX_POINTS), got {samples:,}."
+        )
     return int(samples)

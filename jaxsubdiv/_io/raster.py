@@ -3,11 +3,27 @@
 
 import io
 import os
+import struct
 
 import numpy as np
 
-from .common import Outline, fail, make_outline, read_bytes, resample_polyline
+from . import common
+from .common import (
+    DEFAULT_SAMPLES,
+    Outline,
+    check_contours,
+    check_points,
+    fail,
+    make_outline,
+    one_line,
+    quote,
+    read_bytes,
+    resample_polyline,
+)
 from .svg import sample_contour
+
+
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 def read_glyph(text: str, font=None, size: float = 1.0, samples=None) -> list[Outline]:
@@ -21,9 +37,28 @@ def read_glyph(text: str, font=None, size: float = 1.0, samples=None) -> list[Ou
     from matplotlib.path import Path as MplPath
     from matplotlib.textpath import TextPath
 
-    where = f"text {text!r}"
-    if not isinstance(text, str) or not text.strip():
+    if not isinstance(text, str):
+        raise TypeError(f"`text` must be a string, got {type(text).__name__}.")
+    if font is not None and not isinstance(font, (str, os.PathLike)):
+        raise TypeError(
+            f"`font` must be a font family or file name, got {type(font).__name__}."
+        )
+    where = f"text {quote(text)}"
+    if not text.strip():
         raise fail(where, "the text has no visible characters.")
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as e:
+        raise fail(
+            where,
+            f"character {e.start} is a lone surrogate ({quote(text[e.start])}), not a letter.",
+        ) from None
+    if len(text) > common.MAX_CONTOURS:
+        raise fail(
+            where,
+            f"the text has {len(text):,} characters, more than the limit of "
+            f"{common.MAX_CONTOURS:,} (jaxsubdiv.io.MAX_CONTOURS); use a shorter text.",
+        )
     if font is None:
         prop = FontProperties()
     elif os.path.isfile(font):
@@ -38,10 +73,20 @@ def read_glyph(text: str, font=None, size: float = 1.0, samples=None) -> list[Ou
                 f"font {font!r} not found; pass a font file or a family from "
                 "matplotlib.font_manager.get_font_names().",
             ) from None
+    nothing = "the text has no visible characters (the font draws nothing for it)."
     try:
         glyphs = TextPath((0, 0), text, size=size, prop=prop)
-    except (OSError, RuntimeError, ValueError) as e:
-        raise fail(where, f"cannot draw it with font {font!r} ({e}).") from None
+    except AttributeError:  # matplotlib fails so when no glyph has an outline ("\u200b")
+        raise fail(where, nothing) from None
+    except (OSError, RuntimeError, ValueError, TypeError) as e:
+        # TypeError: a lone surrogate ("\ud800") that FreeType's binding cannot take
+        raise fail(
+            where,
+            f"cannot draw it with font {'(default)' if font is None else quote(font)} "
+            f"({type(e).__name__}: {one_line(e, 80)}).",
+        ) from None
+    if len(glyphs.vertices) == 0:
+        raise fail(where, nothing)
     contours, segments, start, current = [], [], None, None
     for vertices, code in glyphs.iter_segments(curves=True, simplify=False):
         points = np.asarray(vertices, dtype=np.float64).reshape(-1, 2)
@@ -60,10 +105,19 @@ def read_glyph(text: str, font=None, size: float = 1.0, samples=None) -> list[Ou
         contours.append(segments)
     if not contours:
         raise fail(where, "the font draws no outline for it.")
+    check_contours(where, len(contours), "use a shorter text")
+    check_points(where, len(contours) * (samples or DEFAULT_SAMPLES))
     return [
         make_outline(where, sample_contour(s, True, np.eye(3), samples), True, f"contour {i}")
         for i, s in enumerate(contours)
     ]
+
+
+def _png_size(path, data: bytes) -> tuple[int, int]:
+    """Width and height from the PNG header (the IHDR chunk that must come first)."""
+    if not data.startswith(_PNG_SIGNATURE) or len(data) < 24 or data[12:16] != b"IHDR":
+        raise fail(path, "is not a readable PNG image (it has no PNG signature and header).")
+    return struct.unpack(">II", data[16:24])
 
 
 def read_image(path, threshold: float = 0.5, samples=None) -> list[Outline]:
@@ -76,67 +130,179 @@ def read_image(path, threshold: float = 0.5, samples=None) -> list[Outline]:
     interpolation between pixel centers), and the outer ones are kept: holes are
     dropped, as are specks with less than 1% of the largest area. Pixel (row r,
     column c) of an image of height H is the point (c, H - 1 - r).
+
+    Limits: an image of more than `MAX_PIXELS` pixels is refused from its header,
+    before it is decoded; one with more than `MAX_CONTOURS` contours of at least 0.5%
+    of the largest area (noise, dithering) is refused before they are followed.
     """
     import contourpy
     import matplotlib.image
 
+    if isinstance(threshold, bool) or not isinstance(
+        threshold, (int, float, np.integer, np.floating)
+    ):
+        raise TypeError(f"`threshold` must be a number, got {type(threshold).__name__}.")
     if not 0 < threshold < 1:
         raise ValueError(f"`threshold` must be between 0 and 1, got {threshold}.")
     data = read_bytes(path)
-    try:
-        image = np.asarray(
-            matplotlib.image.imread(io.BytesIO(data), format="png"), dtype=np.float64
+    width, height = _png_size(path, data)
+    if width * height > common.MAX_PIXELS:
+        raise fail(
+            path,
+            f"the image is {width:,} x {height:,} = {width * height:,} pixels, more than the "
+            f"limit of {common.MAX_PIXELS:,} (jaxsubdiv.io.MAX_PIXELS); scale the image down.",
         )
+    try:
+        image = matplotlib.image.imread(io.BytesIO(data), format="png")
+    except MemoryError:
+        raise
     except Exception as e:  # PIL and matplotlib raise many types for a bad image
-        raise fail(path, f"is not a readable PNG image ({type(e).__name__}: {e}).") from None
+        raise fail(
+            path, f"is not a readable PNG image ({type(e).__name__}: {one_line(e, 120)})."
+        ) from None
+    # matplotlib gives float32 in [0, 1]; each channel used is converted to float64
+    # (exactly) on its own rather than the whole image, to save memory.
+    image = np.asarray(image)
     if image.max(initial=0) > 1:
         image = image / 255.0
     if image.ndim == 3:
         if image.shape[2] == 4 and np.ptp(image[..., 3]) > 0:
-            channel = image[..., 3]
+            channel = image[..., 3].astype(np.float64)
         else:
             channel = (
-                image[..., :3] @ np.array([0.299, 0.587, 0.114])
+                image[..., :3].astype(np.float64) @ np.array([0.299, 0.587, 0.114])
                 if image.shape[2] >= 3
-                else image[..., 0]
+                else image[..., 0].astype(np.float64)
             )
     else:
-        channel = image
+        channel = image.astype(np.float64)
+    del image
     border = np.concatenate([channel[0], channel[-1], channel[:, 0], channel[:, -1]])
     background_high = np.mean(border > threshold) >= 0.5
     padded = np.pad(channel, 1, constant_values=1.0 if background_high else 0.0)
-    lines = contourpy.contour_generator(z=padded, line_type="Separate").lines(threshold)
     height = channel.shape[0]
-    loops = [
-        np.stack([line[:-1, 0] - 1, height - line[:-1, 1]], axis=-1)
-        for line in lines
-        if len(line) > 3
-    ]
-    if not loops:
+    del channel
+    generator = contourpy.contour_generator(z=padded, line_type="ChunkCombinedOffset")
+    (points,), (offsets,) = generator.lines(threshold)
+    del padded, generator
+    if points is None:
+        points, offsets = np.zeros((0, 2)), np.zeros(1, np.int64)
+    # All lines are closed (the padding sees to it) and repeat their first point. To
+    # pixel coordinates, y up, in place: (column, row) of the padded image ->
+    # (column - 1, height - row), i.e. pixel (r, c) -> (c, height - 1 - r).
+    points[:, 0] -= 1
+    np.subtract(height, points[:, 1], out=points[:, 1])
+    starts, stops = offsets[:-1], offsets[1:] - 1  # stops: the repeated first point
+    lines = np.flatnonzero(stops - starts >= 3)  # at least 3 distinct points
+    if not len(lines):
         raise fail(
             path,
             f"has no silhouette: no pixel is on the other side of threshold {threshold} "
             "from the background.",
         )
+    # The areas of all lines at once, to drop the specks without making a Python object
+    # for each (a noisy image has millions); then the exact areas of the rest as before
+    # (the cut at half the 1% leaves ample room for the different rounding).
+    rough = _rough_areas(points, starts[lines], stops[lines])
+    candidates = lines[rough >= 0.005 * rough.max()]
+    check_contours(path, len(candidates), "blur, threshold or scale down the image")
+    loops = [points[starts[k] : stops[k]] for k in candidates]
     area = np.array([abs(_area(p)) for p in loops])
-    depth = [
-        sum(_inside(p[0], q) for j, q in enumerate(loops) if j != i) for i, p in enumerate(loops)
-    ]
-    keep = [i for i in range(len(loops)) if depth[i] % 2 == 0 and area[i] >= 0.01 * area.max()]
+    # A loop that contains a point of another one contains all of it (contour lines do
+    # not cross), so it is at least as large: the loops of the kept sizes are nested only
+    # in each other, and their nesting depths need no other loop.
+    big = [p for p, a in zip(loops, area) if a >= 0.01 * area.max()]
+    keep = [p for p, d in zip(big, _depths(big)) if d % 2 == 0]
+    check_points(path, len(keep) * samples if samples else sum(len(p) for p in keep))
     return [
         make_outline(
             path,
-            loops[i] if samples is None else resample_polyline(loops[i], samples, True),
+            p if samples is None else resample_polyline(p, samples, True),
             True,
             f"contour {k}",
         )
-        for k, i in enumerate(keep)
+        for k, p in enumerate(keep)
     ]
+
+
+def _rough_areas(points: np.ndarray, starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
+    """Twice the absolute shoelace area of each line `points[starts[k] : stops[k] + 1]`
+    (which repeats its first point at `stops[k]`; the lines in increasing order), a block
+    of about a million points at a time."""
+    out = np.empty(len(starts))
+    k = 0
+    while k < len(starts):
+        m = max(k + 1, int(np.searchsorted(stops, starts[k] + 2**20, "right")))
+        block = points[starts[k] : stops[m - 1] + 1]
+        x, y = block[:, 0], block[:, 1]
+        cross = x[:-1] * y[1:]
+        cross -= y[:-1] * x[1:]
+        # reduceat at (start, stop) pairs: the even results are the sums over each line.
+        bounds = np.stack([starts[k:m], stops[k:m]], axis=-1).ravel() - starts[k]
+        out[k:m] = np.abs(np.add.reduceat(np.append(cross, 0.0), bounds)[::2])
+        k = m
+    return out
 
 
 def _area(p: np.ndarray) -> float:
     x, y = p[:, 0], p[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def _depths(loops: list[np.ndarray]) -> np.ndarray:
+    """For each loop, how many of the others contain its first point (by `_inside`).
+
+    The same answers as `_inside` for every pair, but only for the pairs where it can
+    be true: a point outside a loop's bounding box (by more than 1, far more than the
+    rounding of the crossing test) is inside it by neither rule, as a horizontal line
+    crosses a closed loop an even number of times. The candidates come from the first
+    points sorted by y, and each loop tests all of its candidates at once.
+    """
+    if not loops:
+        return np.zeros(0, np.int64)
+    first = np.array([p[0] for p in loops])
+    order = np.argsort(first[:, 1], kind="stable")
+    ys = first[order, 1]
+    depth = np.zeros(len(loops), np.int64)
+    for j, polygon in enumerate(loops):
+        low, high = polygon.min(axis=0), polygon.max(axis=0)
+        # _inside is only ever true for low_y <= y < high_y (its crossing test is exact).
+        near = order[np.searchsorted(ys, low[1], "left") : np.searchsorted(ys, high[1], "left")]
+        x = first[near, 0]
+        near = near[(x >= low[0] - 1) & (x <= high[0] + 1) & (near != j)]
+        if len(near):
+            depth[near] += _inside_all(first[near], polygon)
+    return depth
+
+
+def _inside_all(points: np.ndarray, polygon: np.ndarray, pairs: int = 2**20) -> np.ndarray:
+    """`_inside(p, polygon)` for each of `points`, with the same arithmetic, pairing each
+    edge only with the points whose horizontal line it crosses (at most `pairs` pairs
+    at a time)."""
+    a, b = polygon, np.roll(polygon, -1, axis=0)
+    order = np.argsort(points[:, 1], kind="stable")
+    ys = points[order, 1]
+    # (a_y > y) != (b_y > y) exactly when min(a_y, b_y) <= y < max(a_y, b_y).
+    start = np.searchsorted(ys, np.minimum(a[:, 1], b[:, 1]), "left")
+    count = np.searchsorted(ys, np.maximum(a[:, 1], b[:, 1]), "left") - start
+    ends = np.cumsum(count)
+    crossings = np.zeros(len(points), np.int64)
+    first = 0
+    while first < len(a):
+        done = ends[first - 1] if first else 0
+        last = max(int(np.searchsorted(ends, done + pairs, "right")), first + 1)
+        n = count[first:last]
+        edge = np.repeat(np.arange(first, last), n)
+        k = order[start[edge] + np.arange(len(edge)) - np.repeat(np.cumsum(n) - n, n)]
+        x, y = points[k, 0], points[k, 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # the expression of _inside, term for term, for the same rounding
+            xs = a[edge, 0] + (y - a[edge, 1]) * (b[edge, 0] - a[edge, 0]) / (
+                b[edge, 1] - a[edge, 1]
+            )
+        crossings += np.bincount(k[xs > x], minlength=len(points))
+        first = last
+    return crossings % 2 == 1
 
 
 def _inside(point: np.ndarray, polygon: np.ndarray) -> bool:

@@ -9,8 +9,8 @@ import numpy as np
 from jaxtyping import Float
 
 from .._scheme.base import AbstractCurveScheme
-from .common import fail, open_for_writing
-from .points import load_json
+from .common import fail, one_line, open_for_writing
+from .points import load_json, show_json
 
 
 FORMAT = "jaxsubdiv.result"
@@ -71,11 +71,13 @@ def scheme_from_json(value, path) -> AbstractCurveScheme:
     if not (isinstance(cls, type) and issubclass(cls, AbstractCurveScheme)):
         raise fail(path, f"unknown scheme {value['type']!r}.")
     parameters = value.get("parameters", {})
+    if not isinstance(parameters, dict):
+        raise fail(path, '"scheme"["parameters"] must be an object {"name": value, ...}.')
     try:
         return cls(**parameters)
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, ArithmeticError) as e:
         raise fail(
-            path, f"cannot rebuild {value['type']} from {json.dumps(parameters)}: {e}"
+            path, f"cannot rebuild {value['type']} from {show_json(parameters)}: {one_line(e)}"
         ) from None
 
 
@@ -175,11 +177,14 @@ def read_result_json(path) -> SavedResult:
         for v in errors.values()
     ):
         raise fail(path, '"errors" must map names to numbers.')
+    info = data.get("info", {})
+    if not isinstance(info, dict):
+        raise fail(path, '"info" must be an object {"name": value, ...}.')
     return SavedResult(
         scheme=scheme_from_json(data.get("scheme"), path),
         control_points=_control_points(path, data.get("control_points")),
         boundary=boundary,
         levels=levels,
         errors={k: (math.nan if v is None else float(v)) for k, v in errors.items()},
-        info=data.get("info", {}),
+        info=info,
     )

@@ -12,13 +12,18 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from . import common
 from .common import (
     DEFAULT_SAMPLES,
     Outline,
     arc_length_targets,
+    check_contours,
+    check_points,
     fail,
     make_outline,
+    one_line,
     open_for_writing,
+    quote,
     read_bytes,
 )
 
@@ -53,35 +58,58 @@ def evaluate(segment: Segment, t: np.ndarray) -> np.ndarray:
 def arc_segment(p0, rx, ry, angle, large, sweep, p1) -> Segment | None:
     """The SVG arc from `p0` to `p1` by the endpoint-to-center conversion of the SVG 1.1
     specification (implementation notes F.6.5, with the radius correction of F.6.6).
-    A zero radius is a straight line; equal end points draw nothing."""
+    A zero radius is a straight line; equal end points draw nothing. The result holds
+    non-finite numbers when the arc cannot be computed in float64 (the caller checks).
+    """
+    p0, p1 = (np.asarray(p, dtype=np.float64) for p in (p0, p1))
     if np.array_equal(p0, p1):
         return None
-    rx, ry = abs(rx), abs(ry)
+    rx, ry = abs(float(rx)), abs(float(ry))
     if rx == 0 or ry == 0:
         return ("L", np.array([p0, p1]))
     phi = math.radians(angle % 360)
     c, n = math.cos(phi), math.sin(phi)
-    hx, hy = (p0[0] - p1[0]) / 2, (p0[1] - p1[1]) / 2
+    hx, hy = float(p0[0] - p1[0]) / 2, float(p0[1] - p1[1]) / 2
     x1, y1 = c * hx + n * hy, -n * hx + c * hy
-    scale = x1 * x1 / (rx * rx) + y1 * y1 / (ry * ry)
-    if scale > 1:
-        rx, ry = rx * math.sqrt(scale), ry * math.sqrt(scale)
-    num = rx * rx * ry * ry - rx * rx * y1 * y1 - ry * ry * x1 * x1
-    den = rx * rx * y1 * y1 + ry * ry * x1 * x1
-    root = math.sqrt(max(0.0, num / den))
+    # The specification's formulas in terms of the half chord in units of the radii,
+    # (u, v) = (x1 / rx, y1 / ry), of length h: no square can overflow or underflow.
+    # Its center (F.6.5.2) is c' = sqrt(1 - h^2) (rx v, -ry u) / h.
+    u, v = x1 / rx, y1 / ry
+    h = math.hypot(u, v)
+    if h == 0:  # the end points differ by less than float64 can halve
+        return None
+    if h > 1:  # F.6.6: the radii are too small; scale them up to just reach
+        rx, ry, u, v, h = rx * h, ry * h, u / h, v / h, 1.0
+    root = math.sqrt(max(0.0, (1 - h) * (1 + h)))
     if large == sweep:
         root = -root
-    cx1, cy1 = root * rx * y1 / ry, -root * ry * x1 / rx
-    cx = c * cx1 - n * cy1 + (p0[0] + p1[0]) / 2
-    cy = n * cx1 + c * cy1 + (p0[1] + p1[1]) / 2
-    theta1 = math.atan2((y1 - cy1) / ry, (x1 - cx1) / rx)
-    theta2 = math.atan2((-y1 - cy1) / ry, (-x1 - cx1) / rx)
+    uh, vh = u / h, v / h  # a unit vector: root * uh is finite when h is tiny
+    cx1, cy1 = rx * (root * vh), -ry * (root * uh)
+    cx = c * cx1 - n * cy1 + (float(p0[0]) / 2 + float(p1[0]) / 2)
+    cy = n * cx1 + c * cy1 + (float(p0[1]) / 2 + float(p1[1]) / 2)
+    theta1 = math.atan2(v + root * uh, u - root * vh)
+    theta2 = math.atan2(-v + root * uh, -u - root * vh)
     dtheta = theta2 - theta1
     if sweep and dtheta < 0:
         dtheta += 2 * math.pi
     elif not sweep and dtheta > 0:
         dtheta -= 2 * math.pi
-    return ("A", np.array([cx, cy, rx, ry, phi, theta1, dtheta]))
+    elif dtheta == 0 and large:  # end points too close for the angles to differ
+        dtheta = 2 * math.pi if sweep else -2 * math.pi
+    arc = ("A", np.array([cx, cy, rx, ry, phi, theta1, dtheta]))
+    # The center form can lose the end points when the radii are far larger than the
+    # arc: check them against the arc's own size (and the end points' own rounding).
+    with np.errstate(all="ignore"):
+        points = evaluate(arc, np.linspace(0.0, 1.0, 9))
+    if not np.all(np.isfinite(points)):
+        return arc  # the caller reports the overflow
+    size = np.ptp(np.vstack([points, p0, p1]), axis=0).max()
+    tolerance = 1e-6 * size + 64 * np.finfo(float).eps * np.abs([p0, p1]).max()
+    if max(np.abs(points[0] - p0).max(), np.abs(points[-1] - p1).max()) > tolerance:
+        if abs(dtheta) < 1e-6:  # the chord is within 1.3e-7 of its length of the arc
+            return ("L", np.array([p0, p1]))
+        return ("A", np.full(7, np.nan))  # the caller reports it
+    return arc
 
 
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
@@ -111,8 +139,11 @@ class _Scanner:
         match = _NUMBER.match(self.d, self.i)
         if not match:
             raise self.error(f"expected a number for '{command}'.")
+        value = float(match.group())
+        if not math.isfinite(value):
+            raise self.error(f"{quote(match.group())} is too large for a float64 (1.8e308).")
         self.i = match.end()
-        return float(match.group())
+        return value
 
     def flag(self, command: str) -> bool:
         self.skip()
@@ -192,6 +223,11 @@ def parse_path(d: str, path) -> list[tuple[list[Segment], bool]]:
             new_control = ("Q", middle)
         else:  # A
             arc = arc_segment(current, rx, ry, angle, large, sweep, end)
+            if arc is not None and not np.all(np.isfinite(arc[1])):
+                raise scan.error(
+                    "the arc cannot be computed in float64 (its radii, size and position are "
+                    "too far apart); scale the drawing."
+                )
             if arc is not None:
                 segments.append(arc)
         current, control = end, new_control
@@ -257,7 +293,11 @@ def parse_transform(text: str, path) -> np.ndarray:
         try:
             v = [float(a) for a in re.split(r"[\s,]+", args.strip()) if a]
         except ValueError:
-            raise fail(path, f"bad transform {name}({args}).") from None
+            raise fail(
+                path, f"bad transform {name}({quote(args)}): not a list of numbers."
+            ) from None
+        if not all(math.isfinite(a) for a in v):
+            raise fail(path, f"bad transform {name}({quote(args)}): a number is not finite.")
         m = np.eye(3)
         if name == "matrix" and len(v) == 6:
             m[:2] = [[v[0], v[2], v[4]], [v[1], v[3], v[5]]]
@@ -275,7 +315,7 @@ def parse_transform(text: str, path) -> np.ndarray:
                 math.radians(v[0])
             )
         else:
-            raise fail(path, f"bad transform {name}({args}).")
+            raise fail(path, f"bad transform {name}({quote(args)}): wrong number of values.")
         matrix = matrix @ m
     return matrix
 
@@ -284,36 +324,44 @@ def _points_attribute(text: str, element: str, path) -> np.ndarray:
     try:
         values = [float(v) for v in re.split(r"[\s,]+", text.strip()) if v]
     except ValueError:
-        raise fail(path, f"<{element}> has a non-numeric value in points={text!r}.") from None
+        raise fail(path, f"<{element}> has a non-numeric value in points={quote(text)}.") from None
     if len(values) % 2 or len(values) < 4:
-        raise fail(path, f"<{element}> needs at least two x,y pairs, got points={text!r}.")
+        raise fail(path, f"<{element}> needs at least two x,y pairs, got points={quote(text)}.")
+    if not all(math.isfinite(v) for v in values):
+        raise fail(path, f"<{element}> has a number that is not finite in points={quote(text)}.")
     return np.array(values).reshape(-1, 2)
 
 
-def _contours(element, matrix: np.ndarray, path, found: list) -> None:
-    tag = element.tag.rsplit("}", 1)[-1]
-    if tag in _SKIP:
-        return
-    matrix = matrix @ parse_transform(element.get("transform"), path)
-    if tag == "path" and (element.get("d") or "").strip():
-        for segments, closed in parse_path(element.get("d"), path):
-            if (
-                not closed
-                and len(segments) > 1
-                and np.array_equal(_end(segments[-1]), segments[0][1][0])
-            ):
-                closed = True
+def _contours(root, matrix: np.ndarray, path, found: list) -> None:
+    """The drawable contours under `root`, in document order. The tree is walked with a
+    stack, not by recursion, so any nesting depth works."""
+    stack = [(root, matrix)]
+    while stack:
+        element, matrix = stack.pop()
+        tag = element.tag.rsplit("}", 1)[-1] if isinstance(element.tag, str) else ""
+        if tag in _SKIP:
+            continue
+        matrix = matrix @ parse_transform(element.get("transform"), path)
+        if tag == "path" and (element.get("d") or "").strip():
+            for segments, closed in parse_path(element.get("d"), path):
+                if (
+                    not closed
+                    and len(segments) > 1
+                    and np.array_equal(_end(segments[-1]), segments[0][1][0])
+                ):
+                    closed = True
+                found.append((segments, closed, matrix))
+        elif tag in ("polygon", "polyline") and (element.get("points") or "").strip():
+            p = _points_attribute(element.get("points"), tag, path)
+            closed = tag == "polygon" or (len(p) > 2 and np.array_equal(p[0], p[-1]))
+            if closed and np.array_equal(p[0], p[-1]):
+                p = p[:-1]
+            ring = np.concatenate([p, p[:1]]) if closed else p
+            segments = [("L", ring[i : i + 2]) for i in range(len(ring) - 1)]
             found.append((segments, closed, matrix))
-    elif tag in ("polygon", "polyline") and (element.get("points") or "").strip():
-        p = _points_attribute(element.get("points"), tag, path)
-        closed = tag == "polygon" or (len(p) > 2 and np.array_equal(p[0], p[-1]))
-        if closed and np.array_equal(p[0], p[-1]):
-            p = p[:-1]
-        ring = np.concatenate([p, p[:1]]) if closed else p
-        segments = [("L", ring[i : i + 2]) for i in range(len(ring) - 1)]
-        found.append((segments, closed, matrix))
-    for child in element:
-        _contours(child, matrix, path, found)
+        if len(found) > common.MAX_CONTOURS:
+            check_contours(path, len(found), counted=False)
+        stack.extend((child, matrix) for child in reversed(list(element)))
 
 
 _FLIP = np.diag([1.0, -1.0, 1.0])
@@ -325,19 +373,38 @@ def read_svg(path, samples) -> list[Outline]:
     try:
         root = ET.fromstring(read_bytes(path))
     except ET.ParseError as e:
-        raise fail(path, f"is not valid XML/SVG ({e}).") from None
+        raise fail(path, f"is not valid XML/SVG ({one_line(e, 120)}).") from None
     if root.tag.rsplit("}", 1)[-1] != "svg":
         raise fail(
             path, f"is not an SVG file (its root element is <{root.tag.rsplit('}', 1)[-1]}>)."
         )
     found = []
-    _contours(root, _FLIP, path, found)
+    with np.errstate(all="ignore"):  # overflow is checked on the sampled points
+        _contours(root, _FLIP, path, found)
     if not found:
-        raise fail(path, "has no <path>, <polygon> or <polyline> with points to read.")
-    return [
-        make_outline(path, sample_contour(s, c, m, samples), c, f"contour {i}")
-        for i, (s, c, m) in enumerate(found)
-    ]
+        raise fail(
+            path, "has no contours: no <path>, <polygon> or <polyline> with points to read."
+        )
+    check_points(
+        path,
+        sum(
+            samples
+            or (len(s) + 1 if all(k == "L" for k, _ in s) else DEFAULT_SAMPLES)
+            for s, _, _ in found
+        ),
+    )
+    outlines = []
+    for i, (s, c, m) in enumerate(found):
+        with np.errstate(all="ignore"):
+            points = sample_contour(s, c, m, samples)
+        if not np.all(np.isfinite(points)):
+            raise fail(
+                path,
+                f"contour {i}: its coordinates overflow a float64 (after the transforms); "
+                "scale the drawing down.",
+            )
+        outlines.append(make_outline(path, points, c, f"contour {i}"))
+    return outlines
 
 
 def _number(value) -> str:
@@ -347,18 +414,23 @@ def _number(value) -> str:
 def _svg_document(paths: list[str], points: np.ndarray) -> bytes:
     """An SVG file drawing `paths` (path data in jaxsubdiv coordinates, y up)."""
     lo, hi = points.min(axis=0), points.max(axis=0)
-    size = float(max(hi - lo)) or 1.0
+    # In halves, so that extents up to twice the largest float64 do not overflow (the
+    # same numbers as in full otherwise); a viewBox beyond it is clipped to the largest.
+    half = hi / 2 - lo / 2
+    size = float(max(half)) or 0.5
     pad = 0.05 * size
-    box = [lo[0] - pad, -hi[1] - pad, hi[0] - lo[0] + 2 * pad, hi[1] - lo[1] + 2 * pad]
-    width = 400.0 * box[2] / max(box[2], box[3])
-    height = 400.0 * box[3] / max(box[2], box[3])
+    box = np.array([lo[0] / 2 - pad, -hi[1] / 2 - pad, half[0] + 2 * pad, half[1] + 2 * pad])
+    width = 400.0 * (box[2] / max(box[2], box[3]))
+    height = 400.0 * (box[3] / max(box[2], box[3]))
+    with np.errstate(over="ignore"):
+        box = np.clip(2 * box, -np.finfo(float).max, np.finfo(float).max)
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         '<svg xmlns="http://www.w3.org/2000/svg" version="1.1" '
         f'width="{width:.1f}" height="{height:.1f}" viewBox="{" ".join(_number(v) for v in box)}">',
         "<!-- written by jaxsubdiv.io; coordinates are y-up, hence scale(1,-1) -->",
         f'<g transform="scale(1,-1)" fill="none" stroke="black" '
-        f'stroke-width="{_number(size / 200)}" stroke-linejoin="round">',
+        f'stroke-width="{_number(size / 100)}" stroke-linejoin="round">',  # size is a half
         *(f'<path d="{d}"/>' for d in paths),
         "</g>",
         "</svg>",
@@ -393,5 +465,11 @@ def write_bezier_svg(
             parts.append(letter + " " + " ".join(f"{_number(x)} {_number(y)}" for x, y in b[1:]))
         d = " ".join(parts) + (" Z" if closed else "")
         points = beziers.reshape(-1, 2)
+    if not np.all(np.isfinite(points)):
+        raise fail(
+            path,
+            "the curve's coordinates overflow a float64 (or are NaN); scale the control points "
+            "down.",
+        )
     with open_for_writing(path) as f:
         f.write(_svg_document([d], points))
