@@ -450,23 +450,28 @@ def _float_array(value, name: str):
 ORDER_SAMPLES_LIMIT = 5000
 
 
-def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype) -> int:
+def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
+               ordered: bool = True) -> int:
     """An estimate, in bytes, of the arrays one fit of `m` samples (its shape bucket)
     holds: about 10 copies of the dense curve basis (N curve samples x n control
     points, with its tangents and the refinement that builds it) and 3 of the
-    samples-by-anchors distances of the foot-point search (N / 8 anchors). Fitted
+    samples-by-anchors distances of the foot-point search (N / 8 anchors); with
+    `ordered=False` also the m x m arrays of `order_samples` (measured: 0.63 GB at
+    m = 5,000, about 3 float64 copies; 4 are counted). Fitted
     from peak memory measured on 2026-12-01 (cubic B-spline and Chaikin, n = 32, 2,000
     to 16,000 samples, 7 to 14 levels): the measured peak, less the 0.6 GB peak of a
     fit of 400 samples (JAX, the compiler, small arrays), was 0.5-0.8x this estimate."""
     N = curve_samples(scheme, n, levels, boundary)
     anchors = N // max(1, min(8, N // 64))
     itemsize = np.dtype(dtype).itemsize
-    return itemsize * (10 * N * n + 3 * bucket(m) * anchors)
+    ordering = 0 if ordered else 4 * 8 * m * m  # order_samples works in float64
+    return itemsize * (10 * N * n + 3 * bucket(m) * anchors) + ordering
 
 
-def _check_memory(caller, m, pad_to, n, levels, scheme, boundary, dtype, memory_budget):
+def _check_memory(caller, m, pad_to, n, levels, scheme, boundary, dtype, memory_budget,
+                  ordered):
     budget = checked_budget(memory_budget, f"{caller}(memory_budget=...)")
-    need = fit_memory(max(m, pad_to), n, levels, scheme, boundary, dtype)
+    need = fit_memory(max(m, pad_to), n, levels, scheme, boundary, dtype, ordered)
     if need > budget:
         raise ValueError(
             f"`{caller}` of {max(m, pad_to)} samples with {n} control points at levels="
@@ -523,8 +528,10 @@ def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights,
         levels = default_levels(n, bucket(max(m, pad_to)), _uses_tangents(scheme, names,
                                                                           boundary))
     else:
-        levels = static_int(levels, "levels", minimum=1)
-    _check_memory(caller, m, pad_to, n, levels, scheme, boundary, target.dtype, memory_budget)
+        levels = static_int(levels, "levels", minimum=1, maximum=40,
+                            why=": the curve would have n x 2^levels samples")
+    _check_memory(caller, m, pad_to, n, levels, scheme, boundary, target.dtype, memory_budget,
+                  ordered)
     if weights is None:
         weights = np.ones((m,), target.dtype)
     else:
@@ -974,6 +981,7 @@ def fit_batch(
     **Returns:** one [`fitting.FitResult`][] whose array fields have a leading batch axis
     (for a ragged list, `curve` and the control points have the common shapes).
     """
+    checked_budget(memory_budget, "fit_batch(memory_budget=...)")
     if on_failure not in ("raise", "warn", "ignore"):
         raise ValueError(f"`on_failure` must be 'raise', 'warn' or 'ignore'; got {on_failure!r}.")
     if isinstance(targets, (list, tuple)):

@@ -88,11 +88,21 @@ def static_int(value, name: str, *, minimum: int, maximum: int | None = None, wh
         )
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"`{name}` must be an int, got {value!r} of type {type(value).__name__}.")
+    if abs(int(value)).bit_length() > 63:  # also keeps `{value:,}` below Python's digit limit
+        raise ValueError(
+            f"`{name}` must be a 64-bit integer, got one of {_digits(value)} digits."
+        )
     if value < minimum:
         raise ValueError(f"`{name}` must be >= {minimum}, got {value}.")
     if maximum is not None and value > maximum:
         raise ValueError(f"`{name}` must be <= {maximum:,}, got {value:,}{why}.")
     return int(value)
+
+
+def _digits(value: int) -> int:
+    """The number of decimal digits of an int of any size (without `str`, which Python
+    refuses above 4,300 digits)."""
+    return int(abs(int(value)).bit_length() * math.log10(2)) + 1
 
 
 def checked_budget(value, name: str = "memory_budget") -> float:
@@ -102,8 +112,8 @@ def checked_budget(value, name: str = "memory_budget") -> float:
     NaN, infinities, zero, negative numbers and non-numbers are errors, so a budget can
     never silently switch its check off.
     """
-    if isinstance(value, jax.Array) and not is_traced(value) and value.ndim == 0:
-        value = value.item()  # a concrete JAX scalar
+    if isinstance(value, (jax.Array, np.ndarray)) and not is_traced(value) and value.ndim == 0:
+        value = value.item()  # a concrete JAX or NumPy scalar array
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.integer, np.floating)):
         raise TypeError(
             f"`{name}` must be a number of bytes (an int or a float), got {value!r} of type "
@@ -122,7 +132,8 @@ def checked_budget(value, name: str = "memory_budget") -> float:
     if number > MAX_MEMORY_BUDGET:
         raise ValueError(
             f"`{name}` must be at most 2^60 bytes (1 EiB, more than any machine has), got "
-            f"{number:.3g}; pass the memory you actually have."
+            f"a number of {_digits(number) if isinstance(number, int) else f'{number:.3g}'}"
+            f"{' digits' if isinstance(number, int) else ''}; pass the memory you actually have."
         )
     return number
 

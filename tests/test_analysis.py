@@ -380,7 +380,7 @@ def test_smoothness_and_limits_of_float32_masks():
         P = np.random.default_rng(0).normal(size=(9, 2)).astype(np.float32)
         refined = js.refine(P, js.FourPoint(0.07), 6)
         print(np.asarray(js.limit_points(refined, js.FourPoint(0.07))).dtype)
-        # Rounded in float32 from degree 26; the analysis uses the exact float64 mask.
+        # Rounded in float32 from degree 27; the analysis uses the exact float64 mask.
         print(js.smoothness(js.LaneRiesenfeld(40)).continuity)
         """
     )

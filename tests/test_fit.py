@@ -659,6 +659,10 @@ def test_fit_under_filter_jit():
         (dict(memory_budget="2GB"), TypeError, "must be a number of bytes"),
         (dict(target=np.tile(blob(100), (61, 1)), ordered=False), ValueError, "limit is 5000"),
         (dict(target=blob(100) * 1e308), ValueError, "spans more than the largest float64"),
+        (dict(levels=1100), ValueError, "`levels` must be <= 40"),
+        # order_samples' m x m arrays count too: 4,000 samples need 0.5 GiB for them.
+        (dict(target=np.tile(blob(100), (40, 1)), ordered=False, memory_budget=3e8),
+         ValueError, "above memory_budget=300,000,000 bytes"),
     ],
 )
 def test_bad_input_is_a_clear_error(change, error, words):
@@ -676,6 +680,7 @@ def test_bad_input_is_a_clear_error(change, error, words):
         (dict(weights=1.0), "one weight array per target"),
         (dict(devices=[]), "devices"),
         (dict(tol=0.0), "tol"),
+        (dict(memory_budget=-1), r"`fit_batch\(memory_budget=...\)` must be a finite"),
     ],
 )
 def test_bad_batch_input_is_a_clear_error(change, words):

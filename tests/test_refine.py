@@ -603,6 +603,13 @@ HOSTILE = [
     ("split_tweak_none", lambda: js.SplitTweak(None), TypeError, ["SplitTweak(t)"]),
     ("four_point_complex_traced", lambda: jax.jit(lambda w: js.FourPoint(w).w)(0.05 + 1j),
      TypeError, ["FourPoint(w)", "must be real"]),
+    # Integers past Python's 4,300-digit limit for str(): named, not that limit's message.
+    ("lane_riesenfeld_5001_digits", lambda: js.LaneRiesenfeld(10**5000), ValueError,
+     ["LaneRiesenfeld(degree)", "64-bit integer", "5001 digits"]),
+    ("refine_5001_digit_levels", lambda: js.refine(polygon(8), js.Chaikin(), 10**5000),
+     ValueError, ["`levels`", "64-bit integer"]),
+    ("budget_401_digits", lambda: js.refine(polygon(8), js.Chaikin(), 1, memory_budget=10**400),
+     ValueError, ["memory_budget", "at most 2^60", "401 digits"]),
     *_budget_cases(),
 ]  # fmt: skip
 

@@ -38,7 +38,7 @@ class LaneRiesenfeld(AbstractCurveScheme):
 
     - `degree`: the B-spline degree, $1 \le d \le 55$ (static: it sets the mask
       length). Up to 55 the mask is exact in float64 (see `MAX_DEGREE`); in float32
-      (JAX's default) it is exact up to degree 25 and rounded above, which is fine for
+      (JAX's default) it is exact up to degree 26 and rounded above, which is fine for
       refining but not for analysis: `smoothness` and `analyze` use the exact float64
       mask.
 
@@ -71,7 +71,7 @@ class LaneRiesenfeld(AbstractCurveScheme):
 
     def host_mask(self) -> np.ndarray:
         # Exact in float64 whatever JAX's default dtype (the float32 mask is rounded
-        # from degree 26 on, and its analysis would then see a different scheme).
+        # from degree 27 on, and its analysis would then see a different scheme).
         scale = 2**self.degree
         return np.array([c / scale for c in binomial_row(self.degree + 1)], np.float64)
 
