@@ -15,8 +15,9 @@ is classified:
   library, caught by the case;
 - `vague error`: exit status 2 and one line, but naming neither the file nor an option;
 - `defect`: anything else: another exception or a traceback, a wrong result (the case
-  printed `WRONG`), a hang (time limit), memory exhausted, or a peak resident memory
-  above `PEAK_LIMIT` (measured by `/usr/bin/time`) whatever the answer.
+  printed `WRONG`), a hang (time limit), memory exhausted, or, whatever the answer, a
+  peak resident memory above `PEAK_LIMIT` (measured by `/usr/bin/time`) or more than
+  `SLOW` seconds.
 
 Writes the JSON of every case and a Markdown table beside it (`results/hostile.*`).
 `--src DIR` runs another source tree (prepended to `PYTHONPATH`). Standard library only.
@@ -42,6 +43,8 @@ MEMORY = 8 * 1024**3
 #: A case whose process peaks above this (resident) is a defect whatever it printed: the
 #: inputs are small, and every entry point should bound its memory before allocating.
 PEAK_LIMIT = 3 * 1024**3
+#: ... or takes longer than this, in seconds (a fit that compiles takes about 10).
+SLOW = 40
 
 # Python run before every library case: float64 as the command uses, and the verdict
 # helpers. `clear(e)` accepts the documented error types with a one-line message.
@@ -305,6 +308,8 @@ def run_case(case, src):
     verdict, why = _classify(how, files, code, stdout, stderr, changed)
     if peak is not None and peak > PEAK_LIMIT and verdict != "defect":
         verdict, why = "defect", f"peak memory {peak / 1024**3:.1f} GiB; {why}"
+    if seconds > SLOW and verdict != "defect":
+        verdict, why = "defect", f"slow ({seconds:.0f} s); {why}"
     return dict(area=area, name=name, how=how[:200], exit=code, seconds=round(seconds, 2),
                 peak_bytes=peak,
                 verdict=verdict, why=why, stdout=stdout[-600:], stderr=stderr[-600:])
@@ -323,8 +328,9 @@ def _classify(how, files, code, stdout, stderr, changed):
         if "Traceback" in stderr:
             return "defect", "traceback: " + last
         if code == 2 and len(stderr.strip().splitlines()) == 1:
-            names = [f for f in files if f in last] or [w for w in how.split() if
-                                                        w.startswith("-") and w in last]
+            names = [f for f in files if f in last] or [
+                w for w in how.split() if w.startswith("-") and f"{w.lstrip('-')}`" in last
+                or w.startswith("-") and w in last]
             return ("clear error" if names or "--text" in how else "vague error"), last
         if code in (0, 1) and " nan" not in stdout:
             return "answered", (stdout.strip().splitlines() or [""])[-1][:200]
@@ -369,8 +375,9 @@ def main():
         f"# Hostile inputs (issue 17), {args.label}", "",
         f"{started}; {info['machine']}; Python {info['python']}; load {load:.1f} at start, "
         f"{info['load_end']:.1f} at end. Each case in a fresh process, time limit {TIMEOUT} s, "
-        f"address space {MEMORY / 1024**3:.0f} GiB, peak resident above {PEAK_LIMIT / 1024**3:.0f} GiB a "
-        f"defect (`benchmarks/hostile_cases.py`"
+        f"address space {MEMORY / 1024**3:.0f} GiB; a peak resident above "
+        f"{PEAK_LIMIT / 1024**3:.0f} GiB or more than {SLOW} s is a defect "
+        f"(`benchmarks/hostile_cases.py`"
         + (f", source `{args.src}`" if args.src else "") + ").", "",
         "| area | " + " | ".join(VERDICTS) + " |", "|---|" + "---:|" * len(VERDICTS),
         *(f"| {a} | " + " | ".join(str(c[v]) for v in VERDICTS) + " |" for a, c in counts.items()),

@@ -265,6 +265,22 @@ def test_limit_curvature_of_cubic_bspline_circle_approximation():
     np.testing.assert_allclose(kappa, expected, rtol=1e-12)
 
 
+@pytest.mark.parametrize("scale", [1e160, 1e-160, 1e300, 1e-300])
+def test_limit_curvature_at_extreme_scales(scale):
+    # Curvature is 1/length: the closed form above, divided by the scale (once NaN,
+    # from squares and cubes of the derivatives overflowing or underflowing). In 3-D
+    # (the plane z = 0) its magnitude.
+    P = _polygon()
+    d1 = (np.roll(P, -1, 0) - np.roll(P, 1, 0)) / 2
+    d2 = np.roll(P, -1, 0) - 2 * P + np.roll(P, 1, 0)
+    expected = (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]) / np.linalg.norm(d1, axis=1) ** 3
+    kappa = np.asarray(js.limit_curvature(scale * P, js.CubicBSpline()))
+    np.testing.assert_allclose(kappa * scale, expected, rtol=1e-12)
+    space = np.concatenate([P, np.zeros((len(P), 1))], 1)
+    kappa = np.asarray(js.limit_curvature(scale * space, js.CubicBSpline()))
+    np.testing.assert_allclose(kappa * scale, np.abs(expected), rtol=1e-12)
+
+
 def test_four_point_c1_range():
     # C1 on 0 < w < w* ~ 0.19273 (Hechler, Mößner, Reif 2009); the DLG sufficient bound
     # (sqrt 5 - 1)/8 ~ 0.1545 is not the end of it.

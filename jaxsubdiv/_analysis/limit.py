@@ -12,6 +12,7 @@ from fractions import Fraction
 from typing import Literal
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
@@ -247,6 +248,14 @@ def limit_curvature(
         raise ValueError(f"`limit_curvature` needs points with d >= 2 coordinates, got d={d}.")
     first = _derivative(points, scheme, 1, boundary, "limit_curvature")
     second = _derivative(points, scheme, 2, boundary, "limit_curvature")
+    # Each derivative in units of its largest coordinate, so that no square or cube
+    # overflows or underflows at extreme scales (a circle of radius 1e160 or 1e-160);
+    # the curvature is (b / a^2) times that of the rescaled derivatives, and with `a`
+    # and `b` held constant the expression is the same function: exact derivatives.
+    a = jax.lax.stop_gradient(jnp.max(jnp.abs(first), axis=-1))
+    b = jax.lax.stop_gradient(jnp.max(jnp.abs(second), axis=-1))
+    a, b = jnp.where(a > 0, a, 1.0), jnp.where(b > 0, b, 1.0)
+    first, second = first / a[..., None], second / b[..., None]
     speed2 = jnp.sum(first**2, axis=-1)
     if d == 2:
         numerator = first[..., 0] * second[..., 1] - first[..., 1] * second[..., 0]
@@ -256,7 +265,7 @@ def limit_curvature(
         numerator = jnp.where(ok2, jnp.sqrt(jnp.where(ok2, cross2, 1.0)), 0.0)
     ok = speed2 > 0
     safe = jnp.where(ok, speed2, 1.0)
-    return jnp.where(ok, numerator / safe**1.5, jnp.nan)
+    return jnp.where(ok, (b / a) / a * (numerator / safe**1.5), jnp.nan)
 
 
 for _function in (limit_points, limit_tangents, limit_second_derivatives, limit_curvature):
