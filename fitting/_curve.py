@@ -63,6 +63,44 @@ def _window_project(points, curve, closed, window, count=None):
     return pick(window), pick(u)
 
 
+#: The searches over anchors (and the global search over all segments) hold a points x
+#: anchors (or points x segments) array; above this many entries they run in blocks of
+#: points (`_in_row_blocks`), so that the fit's memory grows linearly with its samples
+#: (at the default `levels` the anchors grow with the samples too: the arrays of all
+#: pairs took about 1.1 GB at 16,000 samples). 2^22 pairs of float64: 32 MiB an array.
+BLOCK_PAIRS = 2**22
+
+
+def _in_row_blocks(function, pairs_per_row: int, *rows):
+    """`function(*rows)`, for arrays whose first axis runs over the points and whose
+    outputs do too, evaluated in blocks of points (`lax.map`) when all at once would
+    hold more than `BLOCK_PAIRS` point pairs. The last block is padded with copies of
+    the last point, whose results are dropped."""
+    m = rows[0].shape[0]
+    size = max(1, BLOCK_PAIRS // max(1, pairs_per_row))
+    if m <= size:
+        return function(*rows)
+    pad = -m % size
+
+    def split(x):
+        x = jnp.concatenate([x, jnp.repeat(x[-1:], pad, axis=0)])
+        return x.reshape(-1, size, *x.shape[1:])
+
+    out = jax.lax.map(lambda block: function(*block), tuple(split(x) for x in rows))
+    return jax.tree.map(lambda y: y.reshape(-1, *y.shape[2:])[:m], out)
+
+
+def _nearest_anchor(points, anchors):
+    """Each point's nearest anchor and the squared distance to it (less |p|^2, as
+    `_anchor_distance2`), in blocks of points when there are many pairs."""
+
+    def block(p):
+        d2 = _anchor_distance2(p, anchors)
+        return jnp.argmin(d2, axis=1), jnp.min(d2, axis=1)
+
+    return _in_row_blocks(block, anchors.shape[0], points)
+
+
 def _anchors(curve, closed, coarse):
     segments = curve.shape[0] if closed else curve.shape[0] - 1
     coarse = max(1, min(coarse, segments // 4 or 1))
@@ -79,7 +117,7 @@ def _anchor_distance2(points, anchors):
 def _lost(points, anchors, found2):
     """Whether some anchor is nearer to its point than the foot found (squared distances
     `found2`): then that foot is not the nearest point, and a global search is due."""
-    nearest2 = jnp.min(_anchor_distance2(points, anchors), axis=1) + jnp.sum(points**2, -1)
+    nearest2 = _nearest_anchor(points, anchors)[1] + jnp.sum(points**2, -1)
     # The matrix-product distances carry rounding of about eps |p|^2: an absolute margin
     # keeps exact fits (feet at distance ~0) from falling back at every step.
     scale = jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(anchors**2, -1)))
@@ -111,7 +149,7 @@ def _coarse_to_fine(points, curve, closed, coarse, count=None):
     """`project`'s search: (coarse, anchors, each point's nearest anchor, segment,
     fraction)."""
     coarse, anchors = _anchors(curve, closed, coarse)
-    nearest = jnp.argmin(_anchor_distance2(points, anchors), axis=1)
+    nearest, _ = _nearest_anchor(points, anchors)
     offsets = jnp.arange(-coarse - 1, coarse + 1)
     start = _outline_position(nearest * coarse, count) if closed else nearest * coarse
     window = start[:, None] + offsets[None, :]
@@ -183,7 +221,8 @@ def foot_residual(
 
 def _all_distances(points, curve, closed, chunk):
     """Nearest point of the polyline to each point, every segment checked: (segment,
-    fraction). Chunks of `chunk` points bound the memory to chunk x N x d."""
+    fraction). Chunks of `chunk` points (fewer when the curve is long: at most
+    `BLOCK_PAIRS` point-segment pairs) bound the memory to chunk x N x d."""
     a, b = _segment_ends(curve, closed)
     ab = b - a
     length2 = jnp.sum(ab**2, -1)
@@ -198,6 +237,7 @@ def _all_distances(points, curve, closed, chunk):
         return best, jnp.take_along_axis(u, best[:, None], axis=1)[:, 0]
 
     m = points.shape[0]
+    chunk = max(1, min(chunk, BLOCK_PAIRS // a.shape[0]))
     pad = -m % chunk
     padded = jnp.concatenate([points, jnp.repeat(points[-1:], pad, axis=0)])
     segment, fraction = jax.lax.map(block, padded.reshape(-1, chunk, points.shape[-1]))
@@ -248,16 +288,20 @@ def distances(
     vertex = curve[vertex % N if closed else jnp.minimum(vertex, N - 1)]  # (k, coarse+1, d)
     center = 0.5 * (jnp.min(vertex, axis=1) + jnp.max(vertex, axis=1))
     radius = jnp.sqrt(jnp.max(jnp.sum((vertex - center[:, None, :]) ** 2, -1), axis=1))
-    to_center = _anchor_distance2(points, center) + jnp.sum(points**2, -1)[:, None]
-    lower = jnp.sqrt(jnp.maximum(to_center, 0.0)) - radius[None, :]
-    group = jnp.arange(k)[None, :]
-    before = (nearest[:, None] - 1) % k if closed else nearest[:, None] - 1
-    searched = (group == nearest[:, None]) | (group == before)
     # Rounding of the matrix-product distances (about eps |p|^2) must not certify a
     # group that is truly nearer: a margin relative to the coordinates' scale.
     scale = jnp.sqrt(jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(curve**2, -1))))
     margin = 1e-6 * scale
-    unsure = jnp.any(~searched & (lower < found[:, None] + margin))
+
+    def unsure_rows(p, found, nearest):
+        to_center = _anchor_distance2(p, center) + jnp.sum(p**2, -1)[:, None]
+        lower = jnp.sqrt(jnp.maximum(to_center, 0.0)) - radius[None, :]
+        group = jnp.arange(k)[None, :]
+        before = (nearest[:, None] - 1) % k if closed else nearest[:, None] - 1
+        searched = (group == nearest[:, None]) | (group == before)
+        return jnp.any(~searched & (lower < found[:, None] + margin), axis=1)
+
+    unsure = jnp.any(_in_row_blocks(unsure_rows, k, points, found, nearest))
     segment, fraction = jax.lax.cond(
         unsure, lambda: _all_distances(points, curve, closed, chunk), lambda: (segment, fraction)
     )

@@ -24,7 +24,7 @@ from jaxsubdiv._misc import (
 from jaxsubdiv._refine import _min_points
 
 from . import _exported, _progress
-from ._curve import curve_samples, distances, evaluate, locate, safe_norm
+from ._curve import BLOCK_PAIRS, curve_samples, distances, evaluate, locate, safe_norm
 from ._init import initial_control, order_samples
 from ._objective import BACK_WEIGHT as BACK_WEIGHT, FitData, Objective
 from ._params import fitted_names, from_unconstrained, to_unconstrained
@@ -454,18 +454,24 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
                ordered: bool = True) -> int:
     """An estimate, in bytes, of the arrays one fit of `m` samples (its shape bucket)
     holds: about 10 copies of the dense curve basis (N curve samples x n control
-    points, with its tangents and the refinement that builds it) and 3 of the
-    samples-by-anchors distances of the foot-point search (N / 8 anchors); with
-    `ordered=False` also the m x m arrays of `order_samples` (measured: 0.63 GB at
-    m = 5,000, about 3 float64 copies; 4 are counted). Fitted
-    from peak memory measured on 2026-12-01 (cubic B-spline and Chaikin, n = 32, 2,000
-    to 16,000 samples, 7 to 14 levels): the measured peak, less the 0.6 GB peak of a
-    fit of 400 samples (JAX, the compiler, small arrays), was 0.5-0.8x this estimate."""
+    points, with its tangents and the refinement that builds it), 3 blocks of the
+    foot-point searches' points-by-anchors distances (at most `_curve.BLOCK_PAIRS`
+    entries each: they run in blocks of samples), and about 400 numbers per sample;
+    with `ordered=False` also the m x m arrays of `order_samples` (measured: 0.63 GB
+    at m = 5,000, about 3 float64 copies; 4 are counted). Linear in `m` at fixed
+    `levels`, and at the default `levels` too (which grow with log m).
+
+    Measured on 2026-12-01 (cubic B-spline, n = 32, default levels): the peak less the
+    0.64 GB of a fit of 400 samples was 83, 233 and 271 MB at 4,000, 16,000 and 32,000
+    samples, 0.6-1.0x this estimate (before the blocked searches: 1.1 GB at 16,000).
+    """
     N = curve_samples(scheme, n, levels, boundary)
     anchors = N // max(1, min(8, N // 64))
     itemsize = np.dtype(dtype).itemsize
+    m = bucket(m)
+    searches = 3 * min(m * anchors, BLOCK_PAIRS)
     ordering = 0 if ordered else 4 * 8 * m * m  # order_samples works in float64
-    return itemsize * (10 * N * n + 3 * bucket(m) * anchors) + ordering
+    return itemsize * (10 * N * n + searches + 400 * m) + ordering
 
 
 def _check_memory(caller, m, pad_to, n, levels, scheme, boundary, dtype, memory_budget,
@@ -734,11 +740,12 @@ def fit(
       share one program. The padding's samples are ignored; each costs as much as a
       sample in every solver step.
     - `memory_budget`: the most memory, in bytes, the fit's arrays may take (default 2
-      GiB, as `jaxsubdiv.refine`); a fit estimated to need more (`fitting.fit_memory`:
-      its foot-point search grows with the product of the sample count and the curve
-      samples, so with the square of the sample count at the default `levels`) is a
-      `ValueError` before anything is allocated. At the default `levels`, 16,000 samples
-      are estimated at 1.6 GiB (measured: 1.1 GB more than a fit of 400 samples).
+      GiB, as `jaxsubdiv.refine`); a fit estimated to need more (`fitting.fit_memory`,
+      linear in the sample count) is a `ValueError` before anything is allocated. At
+      the default `levels`, 32,000 samples took 0.27 GB more than 400 (measured). The
+      time per step still grows with the square of the sample count (every sample is
+      compared with every N/8-th curve sample): a process fitting 32,000 samples for 3
+      steps took 71 s, compilation included.
 
     **Returns:** a [`fitting.FitResult`][].
     """

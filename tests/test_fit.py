@@ -367,6 +367,26 @@ def test_distances_equal_brute_force(monkeypatch, closed, spread, fallback):
                                atol=1e-15)
 
 
+@pytest.mark.parametrize("spread, fallback", [(0.002, False), (0.3, True)])
+def test_searches_in_blocks_of_points_give_the_same_distances(monkeypatch, spread, fallback):
+    """With few point pairs allowed at once (`_curve.BLOCK_PAIRS`, so that memory stays
+    linear in the samples), the nearest anchors, the certificate and the global search
+    run in blocks of 10 points (one point for the global search) and still give the
+    brute-force distances."""
+    monkeypatch.setattr(_curve, "BLOCK_PAIRS", 500)  # 50 anchors: blocks of 10 points
+    polyline = glyph_outline("S", 400)
+    rng = np.random.default_rng(6)
+    size = np.linalg.norm(np.ptp(polyline, axis=0))
+    points = polyline[rng.integers(0, len(polyline), 703)]  # not a multiple of 10
+    points = points + spread * size * rng.standard_normal(points.shape)
+    calls = _executions(monkeypatch, _curve, "_all_distances")
+    ours = _curve.distances(jnp.asarray(points), jnp.asarray(polyline), True)
+    jax.block_until_ready(ours)
+    assert bool(calls) == fallback
+    np.testing.assert_allclose(ours, polyline_distances(points, polyline, True), rtol=1e-12,
+                               atol=1e-15)
+
+
 @pytest.mark.parametrize("angle, fallback", [(0.002, False), (0.8, True)])
 def test_feet_tracked_from_the_last_step_are_the_nearest_points(monkeypatch, angle, fallback):
     """Feet found from the previous curve's feet are the nearest points of the new curve
