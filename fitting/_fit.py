@@ -461,9 +461,10 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
     at m = 5,000, about 3 float64 copies; 4 are counted). Linear in `m` at fixed
     `levels`, and at the default `levels` too (which grow with log m).
 
-    Measured on 2026-12-01 (cubic B-spline, n = 32, default levels): the peak less the
-    0.64 GB of a fit of 400 samples was 83, 233 and 271 MB at 4,000, 16,000 and 32,000
-    samples, 0.6-1.0x this estimate (before the blocked searches: 1.1 GB at 16,000).
+    Measured (`benchmarks/bench_fit_memory.py`, cubic B-spline, n = 32, default
+    levels): the peak less the 0.72 GB of a fit of 400 samples was 39, 233 and 242 MB
+    at 4,000, 16,000 and 32,000 samples, 0.3-1.0x this estimate (before the blocked
+    searches: 1.1 and 4.6 GB at 16,000 and 32,000).
     """
     N = curve_samples(scheme, n, levels, boundary)
     anchors = N // max(1, min(8, N // 64))
@@ -742,7 +743,7 @@ def fit(
     - `memory_budget`: the most memory, in bytes, the fit's arrays may take (default 2
       GiB, as `jaxsubdiv.refine`); a fit estimated to need more (`fitting.fit_memory`,
       linear in the sample count) is a `ValueError` before anything is allocated. At
-      the default `levels`, 32,000 samples took 0.27 GB more than 400 (measured). The
+      the default `levels`, 32,000 samples took 0.24 GB more than 400 (measured). The
       time per step still grows with the square of the sample count (every sample is
       compared with every N/8-th curve sample): a process fitting 32,000 samples for 3
       steps took 71 s, compilation included.
