@@ -275,3 +275,16 @@ class CompileCounter:
         import jax
 
         jax.monitoring.unregister_event_duration_listener(self._listen)
+
+
+def assert_one_clear_error(call, error, words):
+    """`call()` raises `error` with a one-line message that contains every one of `words`
+    (the argument it names and the fix): the contract for bad input (issue 17)."""
+    import pytest
+
+    with pytest.raises(error) as info:
+        call()
+    message = str(info.value)
+    assert "\n" not in message, message
+    for word in words:
+        assert word in message, (word, message)

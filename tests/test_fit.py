@@ -359,6 +359,10 @@ def test_distances_equal_brute_force(monkeypatch, closed, spread, fallback):
     size = np.linalg.norm(np.ptp(polyline, axis=0))
     points = polyline[rng.integers(0, len(polyline), 700)]
     points = points + spread * size * rng.standard_normal(points.shape)
+    _assert_brute_force_distances(monkeypatch, points, polyline, closed, fallback)
+
+
+def _assert_brute_force_distances(monkeypatch, points, polyline, closed, fallback):
     calls = _executions(monkeypatch, _curve, "_all_distances")
     ours = _curve.distances(jnp.asarray(points), jnp.asarray(polyline), closed)
     jax.block_until_ready(ours)
@@ -379,12 +383,7 @@ def test_searches_in_blocks_of_points_give_the_same_distances(monkeypatch, sprea
     size = np.linalg.norm(np.ptp(polyline, axis=0))
     points = polyline[rng.integers(0, len(polyline), 703)]  # not a multiple of 10
     points = points + spread * size * rng.standard_normal(points.shape)
-    calls = _executions(monkeypatch, _curve, "_all_distances")
-    ours = _curve.distances(jnp.asarray(points), jnp.asarray(polyline), True)
-    jax.block_until_ready(ours)
-    assert bool(calls) == fallback
-    np.testing.assert_allclose(ours, polyline_distances(points, polyline, True), rtol=1e-12,
-                               atol=1e-15)
+    _assert_brute_force_distances(monkeypatch, points, polyline, True, fallback)
 
 
 @pytest.mark.parametrize("angle, fallback", [(0.002, False), (0.8, True)])
