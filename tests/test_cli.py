@@ -560,3 +560,21 @@ def test_fit_at_extreme_scales_prints_true_figures(capsys, tmp_path, scale):
     # A circle is not a cubic B-spline: 12 control points leave ~1e-4 of the radius.
     assert 0 < float(relative) < 1e-3
     np.testing.assert_allclose(float(absolute) / scale, float(relative) * size / scale, rtol=1e-2)
+
+
+def test_every_hostile_file_is_one_line_through_the_command(capsys, tmp_path):
+    """Every hostile file of `test_io.HOSTILE` (numbers past float64, nesting past the
+    recursion limit, corrupt or bomb archives, headers that lie, huge images, ...),
+    given to the command: status 2, one line naming the file and the problem, never a
+    traceback."""
+    from test_io import HOSTILE
+
+    for name, content, words in HOSTILE:
+        path = tmp_path / name
+        path.write_bytes(content() if callable(content) else content)
+        status, out, err = cli(capsys, "refine", path, "--levels", 0)
+        lines = err.strip().splitlines()
+        assert status == 2 and len(lines) == 1 and "Traceback" not in err, (name, err)
+        assert lines[0].startswith(f"jaxsubdiv refine: error: {path}"), (name, err)
+        for word in [words] if isinstance(words, str) else words:
+            assert word in lines[0], (name, word, err)
