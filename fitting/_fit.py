@@ -462,8 +462,8 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
     `levels`, and at the default `levels` too (which grow with log m).
 
     Measured (`benchmarks/bench_fit_memory.py`, cubic B-spline, n = 32, default
-    levels): the peak less the 0.72 GB of a fit of 400 samples was 39, 233 and 242 MB
-    at 4,000, 16,000 and 32,000 samples, 0.3-1.0x this estimate (before the blocked
+    levels): the peak less the 0.69 GB of a fit of 400 samples was 54, 43 and 115 MB
+    at 4,000, 16,000 and 32,000 samples, 0.2-0.4x this estimate (before the blocked
     searches: 1.1 and 4.6 GB at 16,000 and 32,000).
     """
     N = curve_samples(scheme, n, levels, boundary)
@@ -743,10 +743,9 @@ def fit(
     - `memory_budget`: the most memory, in bytes, the fit's arrays may take (default 2
       GiB, as `jaxsubdiv.refine`); a fit estimated to need more (`fitting.fit_memory`,
       linear in the sample count) is a `ValueError` before anything is allocated. At
-      the default `levels`, 32,000 samples took 0.24 GB more than 400 (measured). The
+      the default `levels`, 32,000 samples took 0.12 GB more than 400 (measured). The
       time per step still grows with the square of the sample count (every sample is
-      compared with every N/8-th curve sample): a process fitting 32,000 samples for 3
-      steps took 71 s, compilation included.
+      compared with every N/8-th curve sample): about 1.5 s a step at 20,000 samples.
 
     **Returns:** a [`fitting.FitResult`][].
     """
