@@ -5,6 +5,7 @@ finite differences, published eigenvalues (Dyn-Levin-Gregory 1987 four-point sch
 Hölder exponents (Daubechies and Lagarias 1992 for D4; B-splines: degree).
 """
 
+import dataclasses
 import math
 import os
 import subprocess
@@ -374,6 +375,48 @@ def test_analyze_report():
     np.testing.assert_allclose(c.curvature_stencil, [1, -2, 1], atol=1e-13)
     with pytest.raises(dataclasses_error()):
         a.name = "x"
+
+
+def test_results_are_host_values_not_pytrees():
+    """`Smoothness` and `Analysis` are immutable host values, not pytrees: `jax.tree.map`
+    passes each through whole as one leaf (as an `eqx.Module` it mapped over their
+    strings and floats), they compare by value and hash, and the arrays of an `Analysis`
+    are read-only NumPy arrays."""
+    s = js.smoothness(js.FourPoint())
+    a = js.analyze(js.FourPoint())
+    assert jax.tree.leaves(s) == [s] and jax.tree.leaves(a) == [a]
+    assert jax.tree.map(lambda x: x, s) is s
+    mapped = jax.tree.map(lambda x: x, {"smooth": s, "report": a})
+    assert mapped["smooth"] is s and mapped["report"] is a
+    # Equal by value: a copy and a recomputation (`analyze` has no cache).
+    copy = dataclasses.replace(s)
+    assert copy is not s and copy == s and hash(copy) == hash(s) and len({s, copy}) == 1
+    assert dataclasses.replace(s, continuity=2) != s
+    again = js.analyze(js.FourPoint(1 / 16))
+    assert again is not a and again == a and hash(again) == hash(a)
+    other = js.analyze(js.FourPoint(0.05))
+    assert other != a and other.smoothness != a.smoothness and len({a, again, other}) == 2
+    assert a != "FourPoint(w=0.0625)"
+    # The fields (names and order) of the former modules, arrays on the host, read-only.
+    assert [f.name for f in dataclasses.fields(s)] == [
+        "converges", "holder_lower", "holder_upper", "continuity", "decided", "factors",
+        "jsr_lower", "jsr_upper", "reason"]  # fmt: skip
+    assert [f.name for f in dataclasses.fields(a)] == [
+        "name", "mask", "mask_start", "support", "primal", "interpolating", "location",
+        "neighborhood", "local_matrix", "eigenvalues", "limit_stencil", "tangent_stencil",
+        "curvature_stencil", "smoothness"]  # fmt: skip
+    for array in (a.mask, a.local_matrix, a.eigenvalues, a.limit_stencil, a.tangent_stencil):
+        assert type(array) is np.ndarray and not array.flags.writeable
+    np.testing.assert_array_equal(a.mask, np.array([-1, 0, 9, 16, 9, 0, -1]) / 16)
+    with pytest.raises(ValueError, match="read-only"):
+        a.mask[0] = 1.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.continuity = 3
+    assert str(s).startswith("C^1, not C^2; Hölder exponent")
+    assert repr(s).startswith("Smoothness(converges=True, holder_lower=")
+    # `Eigen` holds arrays only (its neighborhood is static): it stays a pytree.
+    e = js.eigen(js.CubicBSpline())
+    assert len(jax.tree.leaves(e)) == 3
 
 
 def dataclasses_error():

@@ -3,12 +3,12 @@
 import dataclasses
 from fractions import Fraction
 
-import equinox as eqx
 import numpy as np
-from jaxtyping import Array, Float, Inexact
+from jaxtyping import Float, Inexact
 
 from .._misc import is_traced
 from .._scheme.base import AbstractCurveScheme
+from .describe import describe as describe
 from .local import (
     check_scheme,
     eigen,
@@ -18,22 +18,6 @@ from .local import (
     stencil_values,
 )
 from .smoothness import Smoothness, smoothness
-
-
-def describe(scheme: AbstractCurveScheme) -> str:
-    """`FourPoint(w=0.0625)`-style name of a scheme with its parameter values."""
-    parts = []
-    for field in dataclasses.fields(scheme):
-        value = getattr(scheme, field.name)
-        if is_traced(value):
-            parts.append(f"{field.name}=<traced>")
-            continue
-        array = np.asarray(value)
-        if array.ndim == 0:
-            parts.append(f"{field.name}={array.item():.6g}")
-        else:
-            parts.append(f"{field.name}=[{', '.join(f'{x:.6g}' for x in array.ravel())}]")
-    return f"{type(scheme).__name__}({', '.join(parts)})"
 
 
 def is_interpolating(scheme: AbstractCurveScheme, tol: float = 1e-12) -> bool:
@@ -60,8 +44,29 @@ def _fmt(values) -> str:
     return "[" + ", ".join(f"{float(x) + 0.0:.6g}" for x in array) + "]"
 
 
-class Analysis(eqx.Module):
+_ARRAY_FIELDS = (
+    "mask", "local_matrix", "eigenvalues", "limit_stencil", "tangent_stencil",
+    "curvature_stencil",
+)
+
+
+def _hashable(value):
+    if isinstance(value, np.ndarray):  # by dtype, shape and bits, as `__eq__` compares
+        return (value.dtype.str, value.shape, value.tobytes())
+    return value
+
+
+# A frozen dataclass, not an `eqx.Module`: the report is host data (a name, a location,
+# Fractions, NumPy arrays, a `Smoothness`) computed on concrete parameters, never traced,
+# so it is one pytree leaf (`jax.tree.map` passes it through whole instead of mapping over
+# its strings and numbers), and it is hashable and compares by value.
+@dataclasses.dataclass(frozen=True, eq=False)
+class Analysis:
     r"""The properties of a curve scheme, as computed by [`jaxsubdiv.analyze`][].
+
+    An immutable value computed on the host (not a JAX pytree: `jax.tree.map` treats it
+    as one leaf); its arrays are read-only NumPy arrays. Two results are equal (and hash
+    alike) when every field is, the arrays bit for bit.
 
     - `name`: the scheme with its parameter values, e.g. `FourPoint(w=0.0625)`.
     - `mask`, `mask_start`: the coefficients $a_k$ and the index of the first one.
@@ -81,19 +86,39 @@ class Analysis(eqx.Module):
     """
 
     name: str
-    mask: Float[Array, " L"]
+    mask: Float[np.ndarray, " L"]
     mask_start: int
     support: tuple[float, float]
     primal: bool
     interpolating: bool
     location: str
     neighborhood: tuple[Fraction, ...]
-    local_matrix: Float[Array, "m m"]
-    eigenvalues: Inexact[Array, " m"]
-    limit_stencil: Float[Array, " m"] | None
-    tangent_stencil: Float[Array, " m"] | None
-    curvature_stencil: Float[Array, " m"] | None
+    local_matrix: Float[np.ndarray, "m m"]
+    eigenvalues: Inexact[np.ndarray, " m"]
+    limit_stencil: Float[np.ndarray, " m"] | None
+    tangent_stencil: Float[np.ndarray, " m"] | None
+    curvature_stencil: Float[np.ndarray, " m"] | None
     smoothness: Smoothness
+
+    def __post_init__(self):
+        # Own read-only host copies, so the value (and its hash) cannot change later.
+        for name in _ARRAY_FIELDS:
+            value = getattr(self, name)
+            if value is not None:
+                array = np.array(value)
+                array.setflags(write=False)
+                object.__setattr__(self, name, array)
+
+    def _key(self) -> tuple:
+        return tuple(_hashable(getattr(self, f.name)) for f in dataclasses.fields(self))
+
+    def __eq__(self, other) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash(self._key())
 
     def summary(self) -> str:
         """A multi-line, human-readable report."""

@@ -36,7 +36,8 @@ from jaxtyping import Array, Float, Inexact
 
 from .._misc import is_traced
 from .._scheme.base import AbstractCurveScheme
-from .smoothness import MAX_MASK_LENGTH
+from .describe import describe
+from .smoothness import MAX_MASK_LENGTH, smoothness
 
 
 At = Literal["vertex", "edge"]
@@ -310,8 +311,6 @@ def require_smoothness(scheme: AbstractCurveScheme, order: int, caller: str) -> 
     Traced parameters cannot be checked (the check runs on the host); then the caller's
     docstring says the parameter range is the user's responsibility.
     """
-    from .smoothness import smoothness  # smoothness imports this module
-
     if is_traced(scheme.mask()):
         return
     result = smoothness(scheme)
@@ -323,17 +322,11 @@ def require_smoothness(scheme: AbstractCurveScheme, order: int, caller: str) -> 
         "straddle the threshold)"
     )
     raise ValueError(
-        f"`{caller}`: {_describe(scheme)} does not {what}: {proof}; smoothness gives "
+        f"`{caller}`: {describe(scheme)} does not {what}: {proof}; smoothness gives "
         f"continuity C^{result.continuity}, Hölder exponent in "
         f"[{result.holder_lower:.4f}, {result.holder_upper:.4f}]. A {_NAMES[order]} "
         f"stencil needs a C^{order} scheme."
     )
-
-
-def _describe(scheme) -> str:
-    from .analyze import describe
-
-    return describe(scheme)
 
 
 def _stencil(scheme, order, at, caller):

@@ -28,18 +28,26 @@ Anal. 23 (1992) 1031-1079. G. Gripenberg, "Computing the joint spectral radius",
 Algebra Appl. 234 (1996) 43-60.
 """
 
+import dataclasses
 import functools as ft
 import math
 
-import equinox as eqx
 import numpy as np
 
 from .._misc import is_traced
 from .._scheme.base import AbstractCurveScheme
 
 
-class Smoothness(eqx.Module):
+# A frozen dataclass, not an `eqx.Module`: the result is host data (Python bools, floats,
+# a sentence), computed with NumPy and never traced, so it is a single pytree leaf that
+# `jax.tree.map` passes through whole instead of mapping over its numbers and string; it
+# is also hashable and compares by value.
+@dataclasses.dataclass(frozen=True)
+class Smoothness:
     r"""What [`jaxsubdiv.smoothness`][] found out about a scheme.
+
+    An immutable, hashable value computed on the host (not a JAX pytree: `jax.tree.map`
+    treats it as one leaf). Two results are equal when every field is.
 
     - `converges`: True when the scheme is proven to converge to continuous limits
       ($\alpha > 0$). False when it is proven not to, or when that could not be decided
