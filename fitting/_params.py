@@ -1,47 +1,39 @@
 """Scheme parameters as unconstrained variables, so the solver stays in valid ranges.
 
 optimistix has no bound or ordering constraints for least squares, so each fitted
-parameter is a smooth bijection of an unconstrained real:
+parameter is a smooth bijection of an unconstrained real. The bijections are declared
+with the schemes (`jaxsubdiv.AbstractCurveScheme.to_unconstrained` and
+`from_unconstrained`): by default $p = a + (b - a)\\,\\sigma(u)$ onto the parameter's
+fit interval $(a, b)$ (its `jaxsubdiv.Parameter.c1` interval), $\\sigma$ the logistic
+function; `CornerCutting` keeps $0 < r < s < 1$. Which parameters a scheme can fit is
+`jaxsubdiv.scheme_info(scheme).fittable`:
 
-- `CornerCutting`: $r = \\sigma(a)$, $s = r + (1 - r)\\sigma(b)$, so $0 < r < s < 1$
-  (with one of them fixed, the other ranges over its open interval);
-- `FourPoint`: $w = w_{\\max}\\,\\sigma(c)$ with $w_{\\max} = 0.19$: the scheme is $C^1$ for
-  $0 < w < 0.1927...$ (Hechler, Mößner, Reif 2009; `jaxsubdiv.smoothness` certifies 0.19);
-- `SplitTweak`: $t = \\sigma(c)$, $0 < t < 1$.
+- `CornerCutting`: $r$, $s$ (with the chord model: corner cutting is $C^1$ only on the
+  line $s = r + 1/2$);
+- `FourPoint`: $w \\in (0, 0.19)$: the scheme is $C^1$ for $0 < w < 0.1927...$
+  (Hechler, Mößner, Reif 2009; `jaxsubdiv.smoothness` certifies 0.19);
+- `SplitTweak`: $t \\in (0, 1)$.
 
-$\\sigma$ is the logistic function. Parameters at the edge of their range (e.g.
-`SplitTweak(0)`) start just inside it.
+Parameters at the edge of their range (e.g. `SplitTweak(0)`) start just inside it.
 """
 
 import equinox as eqx
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 import jaxsubdiv as js
 
 
-# C1 up to w ~ 0.1927 (Hechler, Moessner, Reif 2009; certified at 0.19 by
-# jaxsubdiv.smoothness). Dyn, Levin and Gregory's (sqrt(5) - 1)/8 is a sufficient bound.
-W_MAX = 0.19
-_EDGE = 1e-6  # how far inside its range a parameter on the boundary starts
-
-
-def _logit(p):
-    p = jnp.clip(p, _EDGE, 1 - _EDGE)
-    return jnp.log(p) - jnp.log1p(-p)
-
-
-FITTABLE = {
-    js.CornerCutting: ("r", "s"),
-    js.FourPoint: ("w",),
-    js.SplitTweak: ("t",),
-}
+def _fittable(scheme) -> tuple[str, ...]:
+    try:
+        return js.scheme_info(scheme).fittable
+    except ValueError:  # a user scheme outside the registry: nothing to fit
+        return ()
 
 
 def fitted_names(scheme, fit_params) -> tuple[str, ...]:
     """Resolve `fit_params` (False, True or names) against the scheme's parameters."""
-    available = FITTABLE.get(type(scheme), ())
+    available = _fittable(scheme)
     if isinstance(fit_params, (bool, np.bool_)):
         fit_params = bool(fit_params)
     elif fit_params is not None and not isinstance(fit_params, (str, tuple, list)):
@@ -69,46 +61,57 @@ def fitted_names(scheme, fit_params) -> tuple[str, ...]:
 
 
 def to_unconstrained(scheme, names) -> dict:
-    """Initial unconstrained values for the fitted parameters."""
+    """Initial unconstrained values for the fitted parameters (checks the start)."""
     if not names:
         return {}
-    if isinstance(scheme, js.CornerCutting):
-        r, s = scheme.r, scheme.s
-        out = {}
-        if "r" in names:
-            # r = s * sigma(a) when s is fixed; sigma(a) when both are fitted.
-            out["r"] = _logit(r) if "s" in names else _logit(r / s)
-        if "s" in names:
-            out["s"] = _logit((s - r) / (1 - r))
-        return out
-    if isinstance(scheme, js.FourPoint):
-        w = scheme.w
-        if not isinstance(w, jax.core.Tracer) and not bool(jnp.all((w > 0) & (w < W_MAX))):
-            raise ValueError(
-                f"fitting `w` starts from the scheme's w = {float(w):.4g}; it must lie in "
-                f"(0, {W_MAX:.6f}) (the range where the four-point scheme is known to be "
-                "C1). Start from e.g. FourPoint(1/16)."
-            )
-        return {"w": _logit(w / W_MAX)}
-    return {"t": _logit(scheme.t)}
+    return scheme.to_unconstrained(names)
 
 
 def from_unconstrained(scheme, names, raw: dict):
     """The scheme with the fitted parameters set from their unconstrained values."""
     if not names:
         return scheme
-    sig = jax.nn.sigmoid
-    if isinstance(scheme, js.CornerCutting):
-        r, s = scheme.r, scheme.s
-        if "r" in names and "s" in names:
-            r = sig(raw["r"])
-            s = r + (1 - r) * sig(raw["s"])
-        elif "r" in names:
-            r = s * sig(raw["r"])
-        else:
-            s = r + (1 - r) * sig(raw["s"])
-        # tree_at keeps the values as computed (valid by construction; no range check).
-        return eqx.tree_at(lambda m: (m.r, m.s), scheme, (r, s))
-    if isinstance(scheme, js.FourPoint):
-        return eqx.tree_at(lambda m: m.w, scheme, W_MAX * sig(raw["w"]))
-    return eqx.tree_at(lambda m: m.t, scheme, sig(raw["t"]))
+    return scheme.from_unconstrained(names, raw)
+
+
+def uses_tangents(scheme, names, boundary) -> bool:
+    """Whether the fit can use the scheme's exact limit tangents (a C1 Hermite curve).
+
+    Needs a C^1 limit at every parameter the solver may visit. Fitted parameters stay in
+    their fit interval by construction, so each must have a C^1 interval in the registry
+    (`jaxsubdiv.Parameter.c1`: four-point w in (0, 0.19), split-and-tweak t in (0, 1));
+    corner cutting has none (it is C^1 only on the line s = r + 1/2), so fitting r or s
+    uses chords. Traced parameter values are assumed to lie in their C^1 intervals (so
+    that the model, and the optimum, are the same as for concrete values there). A
+    concrete scheme is checked with `jaxsubdiv.smoothness`. Clamped ends have no tangent
+    rule yet.
+    """
+    if boundary == "clamped":
+        return False
+    try:
+        parameters = js.scheme_info(scheme).parameters
+    except ValueError:  # a user scheme outside the registry: no declared C^1 ranges
+        parameters = None
+    if names and (parameters is None or any(
+        p.c1 is None for p in parameters if p.name in names
+    )):
+        return False
+    leaves = jax.tree.leaves(eqx.filter(scheme, eqx.is_array))
+    if any(isinstance(leaf, jax.core.Tracer) for leaf in leaves):
+        # Values unknown (e.g. differentiating the fit with respect to w): assume each
+        # traced parameter lies in its C^1 interval, when it has one.
+        numeric = [p for p in parameters or () if not p.integer]
+        return bool(numeric) and all(p.c1 is not None for p in numeric)
+    # Concrete parameters: certify on the host, also when called inside a trace. Cached
+    # (fit and each item of fit_batch ask again; building the mask costs ~0.5 ms).
+    key = (type(scheme), jax.tree.structure(scheme),
+           tuple(np.asarray(leaf).tobytes() for leaf in leaves))
+    if key not in _C1_CACHE:
+        if len(_C1_CACHE) > 256:
+            _C1_CACHE.clear()
+        with jax.ensure_compile_time_eval():
+            _C1_CACHE[key] = js.smoothness(scheme).continuity >= 1
+    return _C1_CACHE[key]
+
+
+_C1_CACHE: dict = {}

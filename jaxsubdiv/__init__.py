@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 # Public name -> the module that defines it ("" for a public submodule of that name).
 _PUBLIC = {
     # submodules
-    "editor": "", "io": "", "plot": "", "shapes": "", "surfaces": "",
+    "editor": "", "io": "", "plot": "", "shapes": "", "surfaces": "", "validation": "",
     # schemes
     "AbstractCurveScheme": "._scheme.base",
     "Chaikin": "._scheme.chaikin",
@@ -24,14 +24,23 @@ _PUBLIC = {
     "MaskScheme": "._scheme.mask_scheme",
     "Jarek": "._scheme.split_tweak",
     "SplitTweak": "._scheme.split_tweak",
+    # the scheme registry
+    "Parameter": "._scheme.registry",
+    "SchemeInfo": "._scheme.registry",
+    "scheme_info": "._scheme.registry",
+    "schemes": "._scheme.registry",
     # refinement
     "DEFAULT_MEMORY_BUDGET": "._refine",
     "refine": "._refine",
     "refined_count": "._refine",
+    "CurveStencil": "._curve_stencil",
     "subdivision_matrix": "._refine",
+    "min_points": ".validation",
     # analysis
     "Analysis": "._analysis.analyze",
     "analyze": "._analysis.analyze",
+    "curve_stencil": "._analysis.limit",
+    "limit_curve": "._analysis.limit",
     "limit_curvature": "._analysis.limit",
     "limit_points": "._analysis.limit",
     "limit_second_derivatives": "._analysis.limit",
@@ -77,13 +86,16 @@ if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, eagerly
         plot as plot,
         shapes as shapes,
         surfaces as surfaces,
+        validation as validation,
     )
     from ._analysis.analyze import (
         Analysis as Analysis,
         analyze as analyze,
     )
     from ._analysis.limit import (
+        curve_stencil as curve_stencil,
         limit_curvature as limit_curvature,
+        limit_curve as limit_curve,
         limit_points as limit_points,
         limit_second_derivatives as limit_second_derivatives,
         limit_tangents as limit_tangents,
@@ -104,6 +116,9 @@ if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, eagerly
     from ._cache import (
         compilation_cache_dir as compilation_cache_dir,
         enable_compilation_cache as enable_compilation_cache,
+    )
+    from ._curve_stencil import (
+        CurveStencil as CurveStencil,
     )
     from ._refine import (
         DEFAULT_MEMORY_BUDGET as DEFAULT_MEMORY_BUDGET,
@@ -135,9 +150,18 @@ if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, eagerly
     from ._scheme.mask_scheme import (
         MaskScheme as MaskScheme,
     )
+    from ._scheme.registry import (
+        Parameter as Parameter,
+        SchemeInfo as SchemeInfo,
+        scheme_info as scheme_info,
+        schemes as schemes,
+    )
     from ._scheme.split_tweak import (
         Jarek as Jarek,
         SplitTweak as SplitTweak,
+    )
+    from .validation import (
+        min_points as min_points,
     )
 
 

@@ -15,20 +15,9 @@ import time
 from pathlib import Path
 
 
-# CLI name -> (constructor, the parameter options it takes)
-_SCHEMES = {
-    "chaikin": (lambda a: _js().Chaikin(), ()),
-    "corner-cutting": (lambda a: _js().CornerCutting(a.r, a.s), ("r", "s")),
-    "four-point": (lambda a: _js().FourPoint(a.w), ("w",)),
-    "cubic-bspline": (lambda a: _js().CubicBSpline(), ()),
-    "lane-riesenfeld": (lambda a: _js().LaneRiesenfeld(a.degree), ("degree",)),
-    "split-tweak": (lambda a: _js().SplitTweak(a.t), ("t",)),
-    "jarek": (lambda a: _js().Jarek(), ()),
-    "daubechies": (lambda a: _js().Daubechies(), ()),
-}
-_DEFAULTS = {"r": 0.25, "s": 0.75, "w": 1 / 16, "t": 0.5, "degree": 3}
-# Schemes whose parameters `fitting.fit(fit_params=True)` fits.
-_FITTABLE = ("corner-cutting", "four-point", "split-tweak")
+# Scheme names, their parameters (the --r/--s/--w/--t/--degree options), defaults, ranges
+# and help come from the scheme registry's declarations, read without importing JAX so
+# that --help and usage errors stay fast (`jaxsubdiv._scheme.registry.declarations`).
 # Points per contour for a built-in shape's polygon when it is fitted (it is sampled
 # along its edges; refining uses the polygon itself).
 _SHAPE_SAMPLES = 400
@@ -40,38 +29,94 @@ def _js():
     return jaxsubdiv
 
 
+def _declarations():
+    """The listed schemes' declarations by CLI name (no JAX import)."""
+    from ._scheme.registry import declarations
+
+    return declarations()
+
+
+def _parameter_options() -> dict:
+    """Option name -> the declared parameters of that name (one per scheme taking it)."""
+    options = {}
+    for declared in _declarations().values():
+        for p in declared.parameters:
+            options.setdefault(p.name, []).append(p)
+    return options
+
+
+def _fittable() -> list[str]:
+    """The schemes whose parameters `fitting.fit(fit_params=True)` fits."""
+    return [name for name, declared in _declarations().items()
+            if any(p.fit_interval is not None for p in declared.parameters)]
+
+
+def _number(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def _checked_option(p, value):
+    """`value` of option --<p.name>, or a one-line error naming the option and range."""
+    if not bool(p.valid(value)):
+        raise ValueError(
+            f"--{p.name} {_number(value)} is out of range: {p.label} needs {p.range_text()}"
+        )
+    return value
+
+
+def _make_scheme(name: str, values: dict):
+    """The scheme `name` with option values (checked, each naming its option)."""
+    declared = _declarations()[name]
+    for p in declared.parameters:
+        _checked_option(p, values[p.name])
+    try:
+        return declared.info().make(**values)
+    except ValueError as e:  # a relation between parameters (corner cutting's r < s)
+        given = ", ".join(f"--{k} {_number(v)}" for k, v in values.items())
+        raise ValueError(f"{given}: {e}") from None
+
+
 def _scheme(args):
     """The scheme named by --scheme, with its parameter options (others are an error)."""
-    make, takes = _SCHEMES[args.scheme]
-    extra = [name for name in _DEFAULTS if getattr(args, name) is not None and name not in takes]
+    takes = [p.name for p in _declarations()[args.scheme].parameters]
+    extra = [name for name in _parameter_options()
+             if getattr(args, name) is not None and name not in takes]
     if extra:
         raise ValueError(
             f"--{extra[0]} does not apply to --scheme {args.scheme}"
             + (f" (it takes {', '.join('--' + t for t in takes)})" if takes else "")
         )
-    for name in takes:
-        if getattr(args, name) is None:
-            setattr(args, name, _DEFAULTS[name])
-    return make(args)
+    for p in _declarations()[args.scheme].parameters:
+        if getattr(args, p.name) is None:
+            setattr(args, p.name, p.default)
+    return _make_scheme(args.scheme, {name: getattr(args, name) for name in takes})
 
 
 def _scheme_text(name: str, scheme) -> str:
     """`four-point (w=0.0625)`: the CLI name and the values of its parameters."""
-    takes = _SCHEMES[name][1]
-    if not takes:
+    values = _declarations()[name].info().values(scheme)
+    if not values:
         return name
-    values = ", ".join(f"{t}={float(getattr(scheme, t)):.6g}" for t in takes)
-    return f"{name} ({values})"
+    return f"{name} ({', '.join(f'{t}={float(v):.6g}' for t, v in values.items())})"
+
+
+def _option_help(parameters, default=None) -> str:
+    """`four-point tension (default 1/16; -1/4 < w < 1/4)`, from the declarations."""
+    from ._scheme.parameter import number_text
+
+    return "; ".join(
+        f"{p.help} (default {number_text(p.default if default is None else default)}; "
+        f"{p.range_text()})"
+        for p in parameters
+    )
 
 
 def _add_scheme_options(parser, default):
-    parser.add_argument("--scheme", default=default, choices=sorted(_SCHEMES),
+    parser.add_argument("--scheme", default=default, choices=list(_declarations()),
                         help=f"subdivision scheme (default: {default})")
-    parser.add_argument("--r", type=float, help="corner-cutting ratio r (default 1/4)")
-    parser.add_argument("--s", type=float, help="corner-cutting ratio s (default 3/4)")
-    parser.add_argument("--w", type=float, help="four-point tension w (default 1/16)")
-    parser.add_argument("--t", type=float, help="split-tweak parameter t (default 1/2)")
-    parser.add_argument("--degree", type=int, help="Lane-Riesenfeld degree (default 3)")
+    for name, parameters in _parameter_options().items():
+        parser.add_argument(f"--{name}", type=int if parameters[0].integer else float,
+                            help=_option_help(parameters))
 
 
 def _add_force_option(parser):
@@ -331,10 +376,10 @@ def _fit(args) -> int:
 
     js = _js()
     scheme = _scheme(args)
-    if args.fit_params and args.scheme not in _FITTABLE:
+    if args.fit_params and args.scheme not in _fittable():
         raise ValueError(
             f"--fit-params: --scheme {args.scheme} has no parameters to fit (these do: "
-            f"{', '.join(_FITTABLE)})"
+            f"{', '.join(_fittable())})"
         )
     if args.n < 1:
         raise ValueError(f"--n must be at least 1, got {args.n}")
@@ -361,7 +406,8 @@ def _fit(args) -> int:
             f"-o {args.output}: a .npy file holds one curve and the input has {count} "
             "contours; use .npz, .csv, .txt, .svg or .json"
         )
-    unknowns = 2 * args.n + (len(_SCHEMES[args.scheme][1]) if args.fit_params else 0)
+    fitted = [p for p in _declarations()[args.scheme].parameters if p.fit_interval is not None]
+    unknowns = 2 * args.n + (len(fitted) if args.fit_params else 0)
     for i, outline in enumerate(outlines):
         if len(outline.points) < unknowns:
             raise ValueError(
@@ -473,9 +519,14 @@ def _add_fit(sub):
     _add_scheme_options(fit, "cubic-bspline")
     fit.add_argument("--n", type=int, default=32,
                      help="control points per contour (default: 32)")
+    fittable = "; ".join(
+        f"{name} " + ", ".join(p.name for p in _declarations()[name].parameters
+                               if p.fit_interval is not None)
+        for name in _fittable()
+    )
     fit.add_argument("--fit-params", action="store_true",
-                     help="also fit the scheme's parameters (corner-cutting r, s; four-point "
-                     "w; split-tweak t), starting from the given values")
+                     help=f"also fit the scheme's parameters ({fittable}), starting from the "
+                     "given values")
     fit.add_argument("--levels", type=int,
                      help="levels of the limit-curve polyline the errors are measured to "
                      "(default: enough for max(1024, 4 x samples) points)")
@@ -533,8 +584,9 @@ _PAPER_ROWS = (
     ("pi", "four-point", "5.4"),
 )
 _PAPER_SCHEMES = ("chaikin", "corner-cutting", "four-point")
-_SCHEME_TITLES = {"chaikin": "Chaikin", "corner-cutting": "corner cutting",
-                  "four-point": "four-point"}
+# The paper's corner-cutting ratios (its figures 4.2-4.4), where the schemes' own
+# defaults (1/4, 3/4) would be Chaikin again.
+_GALLERY_DEFAULTS = {"r": 0.3, "s": 0.7}
 
 
 def _gallery_rows(shapes):
@@ -559,14 +611,14 @@ def _gallery(args) -> int:
     if unknown:
         raise ValueError(f"--shapes: unknown shape {unknown[0]!r}; the built-in shapes are "
                          f"{', '.join(names)}")
+    schemes = {
+        name: _make_scheme(name, {p.name: getattr(args, p.name)
+                                  for p in _declarations()[name].parameters})
+        for name in _PAPER_SCHEMES
+    }
     levels = args.levels
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    schemes = {
-        "chaikin": js.Chaikin(),
-        "corner-cutting": js.CornerCutting(args.r, args.s),
-        "four-point": js.FourPoint(args.w),
-    }
     lines = [
         "# Refinement gallery",
         "",
@@ -592,7 +644,7 @@ def _gallery(args) -> int:
     rows = _gallery_rows(shapes)
     for shape, name, figure_number in rows:
         scheme = schemes[name]
-        title = f"{shape}, {_SCHEME_TITLES[name]}"
+        title = f"{shape}, {_declarations()[name].title}"
         levels_figure = plot_levels(js.shapes.get(shape), scheme, levels, title=title,
                                     max_points=args.max_points)
         file = f"{shape}-{name}.png"
@@ -643,12 +695,11 @@ def _add_gallery(sub):
                          help="shapes to draw, by name (default: all built-in shapes)")
     gallery.add_argument("--levels", type=_level_list, default=[0, 1, 2, 10, 20],
                          help="levels, separated by commas (default: 0,1,2,10,20)")
-    gallery.add_argument("--r", type=float, default=0.3,
-                         help="corner-cutting ratio r (default: 0.3)")
-    gallery.add_argument("--s", type=float, default=0.7,
-                         help="corner-cutting ratio s (default: 0.7)")
-    gallery.add_argument("--w", type=float, default=1 / 16,
-                         help="four-point tension w (default: 1/16)")
+    for name in _PAPER_SCHEMES:
+        for p in _declarations()[name].parameters:
+            default = _GALLERY_DEFAULTS.get(p.name, p.default)
+            gallery.add_argument(f"--{p.name}", type=int if p.integer else float,
+                                 default=default, help=_option_help([p], default))
     gallery.add_argument("--max-points", type=int, default=50_000,
                          help="deepest refinement computed outright, in points (default: "
                          "50000); deeper levels are drawn as limit points")

@@ -9,6 +9,41 @@ import argparse
 
 _CURVE_NAMES = ("cubic-bspline", "four-point", "jarek", "chaikin", "corner-cutting")
 _FIT_SCHEMES = _CURVE_NAMES
+# The editor's curves are registry schemes; its "jarek" curve is the split-and-tweak
+# family with a t slider (t = 1/2 is Jarek's scheme), so --scheme jarek fits SplitTweak(t).
+_REGISTRY_NAME = {"jarek": "split-tweak"}
+# The parameters the editor has sliders for, each with an option of its name.
+_PARAMETER_SCHEMES = ("four-point", "corner-cutting", "split-tweak")
+
+
+def _parameters():
+    """The declared parameters of the editor's schemes (no JAX import)."""
+    from ._scheme.registry import declarations
+
+    declared = declarations()
+    return [p for name in _PARAMETER_SCHEMES for p in declared[name].parameters]
+
+
+def _number(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def _check_parameters(args) -> None:
+    """Each of --w, --r, --s, --t in its declared range (one line naming the option),
+    and corner cutting's r < s."""
+    for p in _parameters():
+        value = getattr(args, p.name)
+        if not bool(p.valid(value)):
+            raise ValueError(
+                f"--{p.name} {_number(value)} is out of range: {p.label} needs "
+                f"{p.range_text()}"
+            )
+    from ._scheme.registry import scheme_info
+
+    try:  # the relation between the ratios, as the constructor checks it
+        scheme_info("corner-cutting").make(r=args.r, s=args.s)
+    except ValueError as e:
+        raise ValueError(f"--r {_number(args.r)}, --s {_number(args.s)}: {e}") from None
 
 
 def _curves(text: str) -> tuple[str, ...]:
@@ -52,10 +87,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         help="comma-separated curves shown at the start (default: "
                              "cubic-bspline,four-point,jarek; others: chaikin,corner-cutting)")
     parser.add_argument("--levels", type=int, default=5, help="refinement level 0-9 (default: 5)")
-    parser.add_argument("--w", type=float, default=1 / 16, help="four-point tension (default 1/16)")
-    parser.add_argument("--r", type=float, default=0.25, help="corner-cutting r (default 1/4)")
-    parser.add_argument("--s", type=float, default=0.75, help="corner-cutting s (default 3/4)")
-    parser.add_argument("--t", type=float, default=0.5, help="split-tweak t (default 1/2: Jarek)")
+    from ._scheme.parameter import number_text
+
+    for p in _parameters():
+        parser.add_argument(
+            f"--{p.name}", type=int if p.integer else float, default=p.default,
+            help=f"{p.help} (default {number_text(p.default)}; {p.range_text()})",
+        )
     parser.add_argument("--save-prefix", default="jaxsubdiv-edit",
                         help="path prefix of the files the s key writes (default: jaxsubdiv-edit)")
     parser.add_argument("--png", help="write a picture of the editor to this PNG and exit")
@@ -88,6 +126,7 @@ def run(args) -> int:
         raise ValueError("give an INPUT file or --shape NAME, not both")
     if args.fit and args.input is None and args.shape is None:
         raise ValueError("--fit needs an INPUT file or --shape NAME to fit")
+    _check_parameters(args)
     if not 0 <= args.levels <= 9:
         raise ValueError(f"--levels must be from 0 to 9, got {args.levels}")
     if args.n < 3:
@@ -127,13 +166,8 @@ def run(args) -> int:
     if args.open:
         chosen = js.io.Outline(points=chosen.points, closed=False)
     if args.fit:
-        scheme = {
-            "cubic-bspline": lambda: js.CubicBSpline(),
-            "four-point": lambda: js.FourPoint(args.w),
-            "jarek": lambda: js.SplitTweak(args.t),
-            "chaikin": lambda: js.Chaikin(),
-            "corner-cutting": lambda: js.CornerCutting(args.r, args.s),
-        }[args.scheme]()
+        info = js.scheme_info(_REGISTRY_NAME.get(args.scheme, args.scheme))
+        scheme = info.make(**{p.name: getattr(args, p.name) for p in info.parameters})
         editor = Editor.from_fit(chosen, n_control=args.n, scheme=scheme, **options)
         print(editor.status)
     else:

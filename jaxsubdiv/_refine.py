@@ -39,7 +39,7 @@ def _check_scheme(scheme) -> AbstractCurveScheme:
     if not isinstance(scheme, AbstractCurveScheme):
         raise TypeError(
             "`scheme` must be a jaxsubdiv curve scheme such as `jaxsubdiv.Chaikin()`, "
-            f"`jaxsubdiv.FourPoint(w)` or `jaxsubdiv.MaskScheme(mask, start)`; got "
+            f"`jaxsubdiv.FourPoint(w)` or `jaxsubdiv.MaskScheme(coefficients, start)`; got "
             f"{type(scheme).__name__}."
         )
     return scheme
@@ -296,7 +296,7 @@ def refine(
       input to float32).
     - `scheme`: a curve scheme, e.g. `Chaikin()`, `CornerCutting(r, s)`,
       `FourPoint(w)`, `CubicBSpline()`, `LaneRiesenfeld(degree)`, `SplitTweak(t)`,
-      `Jarek()`, `Daubechies()`, `MaskScheme(mask, start)`.
+      `Jarek()`, `Daubechies()`, `MaskScheme(coefficients, start)`.
     - `levels`: number of refinement levels, a Python int >= 0 (static).
     - `boundary`: `"closed"` (periodic: $n \\to 2n$ per level); `"open"` (keep only the
       outputs whose whole stencil lies inside the polygon, e.g. Chaikin

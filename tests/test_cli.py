@@ -448,6 +448,47 @@ def test_bad_input_is_one_line_and_status_2(capsys, tmp_path):
     assert "--n 8 is too many control points" in cli(capsys, "fit", ok, "--n", 8)[2]
 
 
+# The valid ranges as the papers and docstrings give them (not read from the registry):
+# four-point -1/4 < w < 1/4 (Dyn, Levin, Gregory 1987), corner cutting 0 < r < s < 1,
+# split-and-tweak 0 <= t <= 1 (Rossignac 2004), Lane-Riesenfeld 1 <= degree <= 55.
+_OUT_OF_RANGE = [
+    (("--scheme", "four-point", "--w", 0.25), "--w 0.25", "-1/4 < w < 1/4"),
+    (("--scheme", "four-point", "--w", -0.3), "--w -0.3", "-1/4 < w < 1/4"),
+    (("--scheme", "four-point", "--w", "nan"), "--w nan", "-1/4 < w < 1/4"),
+    (("--scheme", "corner-cutting", "--r", 0), "--r 0", "0 < r < 1"),
+    (("--scheme", "corner-cutting", "--s", 1), "--s 1", "0 < s < 1"),
+    (("--scheme", "corner-cutting", "--r", 0.8, "--s", 0.75), "--r 0.8, --s 0.75",
+     "0 < r < s < 1"),
+    (("--scheme", "split-tweak", "--t", 1.5), "--t 1.5", "0 <= t <= 1"),
+    (("--scheme", "split-tweak", "--t", -0.1), "--t -0.1", "0 <= t <= 1"),
+    (("--scheme", "lane-riesenfeld", "--degree", 0), "--degree 0", "1 <= degree <= 55"),
+    (("--scheme", "lane-riesenfeld", "--degree", 56), "--degree 56", "1 <= degree <= 55"),
+]
+
+
+@pytest.mark.parametrize("command", ["refine", "fit", "analyze", "gallery", "edit"])
+def test_out_of_range_scheme_options_are_one_line_naming_the_option(capsys, tmp_path,
+                                                                     command):
+    output = tmp_path / "out"
+    if command in ("refine", "fit"):
+        head, cases = (command, "--shape", "star", "-o", output.with_suffix(".csv")), _OUT_OF_RANGE
+    elif command == "analyze":
+        head, cases = (command,), _OUT_OF_RANGE
+    else:  # gallery and edit take --r --s --w (and edit --t) without --scheme
+        head = (command, "-o", output) if command == "gallery" else (
+            command, "--shape", "star", "--png", output.with_suffix(".png"))
+        cases = [(args[2:], shown, text) for args, shown, text in _OUT_OF_RANGE
+                 if args[1] in ("four-point", "corner-cutting")
+                 or (command == "edit" and args[1] == "split-tweak")]
+    for args, shown, text in cases:
+        status, out, err = cli(capsys, *head, *args)
+        assert status == 2, (args, out, err)
+        (line,) = err.strip().splitlines()
+        assert line.startswith(f"jaxsubdiv {command}: error: {shown}"), line
+        assert text in line, line
+        assert not list(tmp_path.iterdir())  # refused before any work
+
+
 def test_bad_input_from_the_installed_script(tmp_path):
     result = run("fit", tmp_path / "missing.csv", "--n", 8)
     assert result.returncode == 2

@@ -47,7 +47,7 @@ def check_scheme(scheme, caller: str) -> AbstractCurveScheme:
     if not isinstance(scheme, AbstractCurveScheme):
         raise TypeError(
             f"`{caller}(scheme=...)` must be a jaxsubdiv curve scheme such as "
-            "`jaxsubdiv.FourPoint(w)` or `jaxsubdiv.MaskScheme(mask, start)`; got "
+            "`jaxsubdiv.FourPoint(w)` or `jaxsubdiv.MaskScheme(coefficients, start)`; got "
             f"{type(scheme).__name__}."
         )
     if scheme.mask_length > MAX_MASK_LENGTH:

@@ -343,7 +343,7 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
     if not isinstance(scheme, AbstractCurveScheme):
         raise TypeError(
             "`smoothness(scheme=...)` must be a jaxsubdiv curve scheme; for a raw mask use "
-            f"`jaxsubdiv.MaskScheme(mask, start)`. Got {type(scheme).__name__}."
+            f"`jaxsubdiv.MaskScheme(coefficients, start)`. Got {type(scheme).__name__}."
         )
     if scheme.mask_length > MAX_MASK_LENGTH:
         raise ValueError(

@@ -1,14 +1,16 @@
 """Fit results as JSON: enough to rebuild the scheme and the control polygon."""
 
+import dataclasses
 import inspect
 import json
 import math
 
-import equinox as eqx
 import numpy as np
 from jaxtyping import Float
 
+from .._refine import BOUNDARIES
 from .._scheme.base import AbstractCurveScheme
+from .._scheme.registry import by_class_name, scheme_info
 from .common import fail, one_line, open_for_writing
 from .points import load_json, show_json
 
@@ -25,8 +27,13 @@ _ERRORS = (
 )
 
 
-class SavedResult(eqx.Module):
+@dataclasses.dataclass(frozen=True, eq=False)
+class SavedResult:
     """What [`jaxsubdiv.io.read_result_json`][] returns.
+
+    A frozen dataclass, not a pytree: it holds host data (strings, dicts, a NumPy
+    array), so `jax.tree.map` treats it as one leaf; use `result.scheme` and
+    `result.control_points` in JAX code.
 
     **Fields:**
 
@@ -40,8 +47,8 @@ class SavedResult(eqx.Module):
 
     scheme: AbstractCurveScheme
     control_points: Float[np.ndarray, "n d"]
-    boundary: str = eqx.field(static=True)
-    levels: int | None = eqx.field(static=True)
+    boundary: str
+    levels: int | None
     errors: dict
     info: dict
 
@@ -49,35 +56,67 @@ class SavedResult(eqx.Module):
 def scheme_to_json(scheme: AbstractCurveScheme) -> dict:
     """`{"type": class name, "parameters": {constructor argument: value}}`.
 
-    The parameters are read back from the scheme by the names of its constructor's
-    arguments (a method of that name, such as `MaskScheme.mask`, is called).
+    The parameters are the registry's (`jaxsubdiv.scheme_info(scheme).values`); a scheme
+    the registry does not list (`MaskScheme`) saves its constructor's arguments, read
+    from the fields of the same names.
     """
-    parameters = {}
-    for name in inspect.signature(type(scheme).__init__).parameters:
-        if name == "self":
-            continue
-        value = getattr(scheme, name)
-        value = np.asarray(value() if callable(value) else value)
-        parameters[name] = value.tolist()
+    try:
+        info = scheme_info(scheme)
+    except ValueError:
+        info = None  # a user scheme outside the registry: its constructor's arguments
+    if info is not None and info.listed:
+        try:
+            parameters = info.values(scheme)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"the {type(scheme).__name__} scheme holds a batch of parameter values or "
+                "traced ones; write one result at a time, with concrete parameters."
+            ) from None
+    else:
+        parameters = {}
+        for name, argument in inspect.signature(type(scheme).__init__).parameters.items():
+            if name == "self" or argument.kind is inspect.Parameter.KEYWORD_ONLY:
+                continue  # keyword-only arguments are aliases (MaskScheme's `mask`)
+            parameters[name] = np.asarray(getattr(scheme, name)).tolist()
     return {"type": type(scheme).__name__, "parameters": parameters}
 
 
-def scheme_from_json(value, path) -> AbstractCurveScheme:
-    import jaxsubdiv
+# Parameters renamed since files were written: old name -> new name, per class.
+_RENAMED = {"MaskScheme": {"mask": "coefficients"}}
 
+
+def scheme_from_json(value, path) -> AbstractCurveScheme:
     if not isinstance(value, dict) or not isinstance(value.get("type"), str):
         raise fail(path, '"scheme" must be {"type": name, "parameters": {...}}.')
-    cls = getattr(jaxsubdiv, value["type"], None)
-    if not (isinstance(cls, type) and issubclass(cls, AbstractCurveScheme)):
-        raise fail(path, f"unknown scheme {value['type']!r}.")
+    type_name = value["type"]
+    info = by_class_name().get(type_name)
+    if info is None:
+        raise fail(
+            path,
+            f"unknown scheme {type_name!r}; the schemes are "
+            f"{', '.join(by_class_name())}.",
+        )
     parameters = value.get("parameters", {})
     if not isinstance(parameters, dict):
         raise fail(path, '"scheme"["parameters"] must be an object {"name": value, ...}.')
+    renamed = _RENAMED.get(type_name, {})
+    parameters = {renamed.get(k, k): v for k, v in parameters.items()}
     try:
-        return cls(**parameters)
+        if not info.listed:
+            return info.cls(**parameters)
+        names = [p.name for p in info.parameters]
+        unknown = [k for k in parameters if k not in names]
+        missing = [k for k in names if k not in parameters]
+        if unknown or missing:
+            raise ValueError(
+                f"{type_name} takes the parameters {names or 'none'}"
+                + (f"; unknown: {unknown}" if unknown else "")
+                + (f"; missing: {missing}" if missing else "")
+            )
+        return info.make(**parameters)
     except (TypeError, ValueError, ArithmeticError) as e:
         raise fail(
-            path, f"cannot rebuild {value['type']} from {show_json(parameters)}: {one_line(e)}"
+            path, f"cannot rebuild {type_name} from {show_json(parameters)}: {one_line(e)}"
         ) from None
 
 
@@ -166,8 +205,8 @@ def read_result_json(path) -> SavedResult:
             f"has result format version {data.get('version')!r}; this jaxsubdiv reads {VERSION}.",
         )
     boundary = data.get("boundary", "closed")
-    if boundary not in ("closed", "open", "clamped"):
-        raise fail(path, f'"boundary" must be "closed", "open" or "clamped", got {boundary!r}.')
+    if boundary not in BOUNDARIES:
+        raise fail(path, f'"boundary" must be one of {BOUNDARIES}, got {boundary!r}.')
     levels = data.get("levels")
     if levels is not None and (isinstance(levels, bool) or not isinstance(levels, int)):
         raise fail(path, f'"levels" must be an integer or null, got {levels!r}.')

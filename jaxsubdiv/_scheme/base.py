@@ -1,10 +1,26 @@
 import abc
 import math
+from collections.abc import Collection, Mapping
 from typing import ClassVar, Literal
 
 import equinox as eqx
+import jax
+import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
+
+from .parameter import Parameter, number_text
+
+
+# How far inside its fit interval a parameter on the interval's edge starts (e.g.
+# `SplitTweak(0)`): the logistic reaches the edge only at infinity.
+_EDGE = 1e-6
+
+
+def clipped_logit(p):
+    """The inverse of the logistic function, with `p` clipped just inside (0, 1)."""
+    p = jnp.clip(p, _EDGE, 1 - _EDGE)
+    return jnp.log(p) - jnp.log1p(-p)
 
 
 class AbstractCurveScheme(eqx.Module):
@@ -25,7 +41,19 @@ class AbstractCurveScheme(eqx.Module):
 
     Numeric parameters (`r`, `s`, `w`, `t`, a user mask) are JAX array fields: they can be
     traced, differentiated and vmapped. Shape-setting integers (a degree) are static.
+
+    A scheme declares itself to the registry (`jaxsubdiv.schemes()`,
+    `jaxsubdiv.scheme_info`) with the class variables `scheme_name` (command-line name),
+    `scheme_title` and `scheme_parameters` (one [`jaxsubdiv.Parameter`][] per
+    constructor argument: default, valid range, $C^1$ interval, help). They are plain
+    data, read without importing JAX by the command line.
     """
+
+    #: The scheme's parameters, in constructor order (see `jaxsubdiv.Parameter`).
+    scheme_parameters: ClassVar[tuple[Parameter, ...]] = ()
+    #: Whether `jaxsubdiv.schemes()` lists the scheme (False: built by its constructor
+    #: only, like `MaskScheme`).
+    scheme_listed: ClassVar[bool] = True
 
     #: How ghost points are made beyond the ends for ``boundary="clamped"``:
     #: ``"reflect"`` ($P_{-q} = 2P_0 - P_q$, reproduces lines), ``"repeat"``
@@ -73,6 +101,56 @@ class AbstractCurveScheme(eqx.Module):
     @property
     def is_primal(self) -> bool:
         return float(self.center).is_integer()
+
+    def to_unconstrained(self, names: Collection[str]) -> dict[str, Array]:
+        r"""Unconstrained reals for the parameters `names`, for a fit.
+
+        optimistix has no bound constraints for least squares, so a fitted parameter $p$
+        with fit interval $(a, b)$ (its `Parameter.c1` interval) is
+        $p = a + (b - a)\,\sigma(u)$, $\sigma$ the logistic function, and this returns
+        $u$. A value on the edge of the interval (e.g. `SplitTweak(0)`) starts just inside
+        it; a concrete value outside it is a `ValueError` (the fit would start where the
+        scheme is not known to be $C^1$). Inverse of `from_unconstrained`.
+        """
+        out = {}
+        for p in type(self).scheme_parameters:
+            if p.name in names:
+                low, high = p.fit_interval
+                value = getattr(self, p.name)
+                self._check_fit_start(p, value)
+                out[p.name] = clipped_logit((value - low) / (high - low))
+        return out
+
+    def from_unconstrained(self, names: Collection[str], raw: Mapping[str, Array]):
+        """The scheme with the parameters `names` set from their unconstrained values
+        `raw` (see `to_unconstrained`). The values are valid by construction, so they are
+        set with `eqx.tree_at`, without the constructor's range check."""
+        fitted = [p for p in type(self).scheme_parameters if p.name in names]
+        if not fitted:
+            return self
+        values = tuple(
+            p.fit_interval[0]
+            + (p.fit_interval[1] - p.fit_interval[0]) * jax.nn.sigmoid(raw[p.name])
+            for p in fitted
+        )
+        return eqx.tree_at(lambda m: tuple(getattr(m, p.name) for p in fitted), self, values)
+
+    def _check_fit_start(self, p: Parameter, value) -> None:
+        # A value on a closed end of the valid range (SplitTweak(0)) starts just inside.
+        if isinstance(value, jax.core.Tracer):
+            return
+        low, high = p.fit_interval
+        value = np.asarray(value)
+        inside = (low < value) & (value < high)
+        on_edge = ((value == p.low) & (not p.low_open)) | ((value == p.high) & (not p.high_open))
+        if not bool(np.all(inside | on_edge)):
+            title = getattr(type(self), "scheme_title", type(self).__name__)
+            raise ValueError(
+                f"fitting `{p.name}` starts from the scheme's {p.name} = "
+                f"{float(np.max(value)) if value.ndim else float(value):.4g}; it must lie in "
+                f"({low:g}, {high:.6f}) (the range where the {title} scheme is known to be "
+                f"C1). Start from e.g. {type(self).__name__}({number_text(p.default)})."
+            )
 
     def __check_init__(self):
         # `mask_start` must be a plain int; it sets shapes.

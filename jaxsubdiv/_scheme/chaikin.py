@@ -25,6 +25,8 @@ class Chaikin(AbstractCurveScheme):
     """
 
     clamp_ghost: ClassVar[str] = "reflect"
+    scheme_name: ClassVar[str] = "chaikin"
+    scheme_title: ClassVar[str] = "Chaikin"
 
     def mask(self) -> Float[Array, " 4"]:
         return jnp.array([1.0, 3.0, 3.0, 1.0]) / 4

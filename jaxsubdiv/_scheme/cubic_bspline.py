@@ -26,6 +26,8 @@ class CubicBSpline(AbstractCurveScheme):
     """
 
     clamp_ghost: ClassVar[str] = "reflect"
+    scheme_name: ClassVar[str] = "cubic-bspline"
+    scheme_title: ClassVar[str] = "cubic B-spline"
 
     def mask(self) -> Float[Array, " 5"]:
         return jnp.array([1.0, 4.0, 6.0, 4.0, 1.0]) / 8

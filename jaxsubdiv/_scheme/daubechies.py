@@ -1,4 +1,5 @@
 import math
+from typing import ClassVar
 
 import jax.numpy as jnp
 from jaxtyping import Array, Float
@@ -24,6 +25,9 @@ class Daubechies(AbstractCurveScheme):
     Reference: I. Daubechies, "Orthonormal bases of compactly supported wavelets",
     Comm. Pure Appl. Math. 41 (1988) 909-996.
     """
+
+    scheme_name: ClassVar[str] = "daubechies"
+    scheme_title: ClassVar[str] = "Daubechies D4"
 
     def mask(self) -> Float[Array, " 4"]:
         return jnp.array([1 + _SQRT3, 3 + _SQRT3, 3 - _SQRT3, 1 - _SQRT3]) / 4

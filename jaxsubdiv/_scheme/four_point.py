@@ -5,6 +5,18 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._misc import checked_parameter
 from .base import AbstractCurveScheme
+from .parameter import Parameter
+
+
+#: The tension `w`. Valid on $-1/4 < w < 1/4$ (Dyn, Levin, Gregory 1987); $C^1$ for
+#: $0 < w < 0.1927...$ (Hechler, Mößner, Reif 2009, "C1-continuity of the generalized
+#: four-point scheme", Linear Algebra Appl. 430), and `jaxsubdiv.smoothness` certifies
+#: 0.19, so the fit keeps `w` in $(0, 0.19)$. Dyn, Levin and Gregory's
+#: $(\sqrt5 - 1)/8$ is a sufficient bound.
+TENSION = Parameter(
+    "w", default=1 / 16, low=-1 / 4, high=1 / 4, low_open=True, high_open=True,
+    c1=(0, 0.19), help="four-point tension",
+)
 
 
 class FourPoint(AbstractCurveScheme):
@@ -36,12 +48,15 @@ class FourPoint(AbstractCurveScheme):
 
     w: Float[Array, ""]
     clamp_ghost: ClassVar[str] = "repeat"
+    scheme_name: ClassVar[str] = "four-point"
+    scheme_title: ClassVar[str] = "four-point"
+    scheme_parameters: ClassVar[tuple[Parameter, ...]] = (TENSION,)
 
-    def __init__(self, w: ArrayLike = 1 / 16):
+    def __init__(self, w: ArrayLike = TENSION.default):
         self.w = checked_parameter(
             w,
-            lambda w_: (-0.25 < w_) & (w_ < 0.25),
-            "`FourPoint(w)` needs -1/4 < w < 1/4.",
+            TENSION.valid,
+            f"`FourPoint(w)` needs {TENSION.range_text()}.",
             name="FourPoint(w)",
         )
 

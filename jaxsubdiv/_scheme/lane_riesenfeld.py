@@ -7,6 +7,7 @@ from jaxtyping import Array, Float
 
 from .._misc import static_int
 from .base import AbstractCurveScheme, binomial_row
+from .parameter import Parameter
 
 
 #: The largest `LaneRiesenfeld` degree. The mask is $\binom{d+1}{k} / 2^d$, and the
@@ -17,6 +18,12 @@ from .base import AbstractCurveScheme, binomial_row
 #: integer binomials overflowed JAX's int32/int64 arrays from $d = 31$ / $63$; they are
 #: now divided in Python. A $C^{54}$ limit is far past any practical use anyway.
 MAX_DEGREE = 55
+
+#: The degree: static (it sets the mask length), so not fittable.
+DEGREE = Parameter(
+    "degree", default=3, low=1, high=MAX_DEGREE, low_open=False, high_open=False, c1=None,
+    help="Lane-Riesenfeld degree", integer=True,
+)
 
 
 class LaneRiesenfeld(AbstractCurveScheme):
@@ -36,7 +43,7 @@ class LaneRiesenfeld(AbstractCurveScheme):
 
     **Arguments:**
 
-    - `degree`: the B-spline degree, $1 \le d \le 55$ (static: it sets the mask
+    - `degree`: the B-spline degree, $1 \le d \le 55$ (default 3; static: it sets the mask
       length). Up to 55 the mask is exact in float64 (see `MAX_DEGREE`); in float32
       (JAX's default) it is exact up to degree 26 and rounded above, which is fine for
       refining but not for analysis: `smoothness` and `analyze` use the exact float64
@@ -50,13 +57,16 @@ class LaneRiesenfeld(AbstractCurveScheme):
 
     degree: int = eqx.field(static=True)
     clamp_ghost: ClassVar[str] = "reflect"
+    scheme_name: ClassVar[str] = "lane-riesenfeld"
+    scheme_title: ClassVar[str] = "Lane-Riesenfeld"
+    scheme_parameters: ClassVar[tuple[Parameter, ...]] = (DEGREE,)
 
-    def __init__(self, degree: int):
+    def __init__(self, degree: int = DEGREE.default):
         self.degree = static_int(
             degree,
             "LaneRiesenfeld(degree)",
-            minimum=1,
-            maximum=MAX_DEGREE,
+            minimum=DEGREE.low,
+            maximum=DEGREE.high,
             why=(
                 f": above it the mask binomial(degree+1, k) / 2^degree is no longer exact "
                 f"in float64, so it is not that B-spline scheme; use a degree <= {MAX_DEGREE}"

@@ -1,3 +1,6 @@
+import warnings
+from typing import ClassVar
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -25,24 +28,56 @@ class MaskScheme(AbstractCurveScheme):
 
     **Arguments:**
 
-    - `mask`: the coefficients $a_k$ (real, 1-D, length $L \ge 2$; may be traced, so a mask can
-      be differentiated or optimised). Each sub-mask must sum to one (the scheme then
-      reproduces constants and is affine invariant).
-    - `start`: the index $k$ of `mask[0]` (static int). It fixes where outputs sit
-      relative to the control points; for a mask symmetric about $c$, `start = c - (L-1)/2`.
+    - `coefficients`: the mask coefficients $a_k$ (real, 1-D, length $L \ge 2$; may be
+      traced, so a mask can be differentiated or optimised), stored in the field of that
+      name. Each sub-mask must sum to one (the scheme then reproduces constants and is
+      affine invariant). `mask=` is a deprecated alias (a `DeprecationWarning`).
+    - `start`: the index $k$ of `coefficients[0]` (static int). It fixes where outputs
+      sit relative to the control points; for a mask symmetric about $c$,
+      `start = c - (L-1)/2`.
 
     Boundaries: `"closed"` and `"open"`. No clamped rule.
     """
 
     coefficients: Float[Array, " L"]
     start: int = eqx.field(static=True)
+    # In the registry (`scheme_info(MaskScheme)`) but not listed by `schemes()`: its
+    # mask is its argument, so there are no parameters with defaults to build it from.
+    scheme_name: ClassVar[str] = "mask"
+    scheme_title: ClassVar[str] = "mask scheme"
+    scheme_listed: ClassVar[bool] = False
 
-    def __init__(self, mask: ArrayLike, start: int):
-        array = as_float_array(mask, "mask")
+    def __init__(
+        self,
+        coefficients: ArrayLike | None = None,
+        start: int | None = None,
+        *,
+        mask: ArrayLike | None = None,
+    ):
+        if mask is not None:
+            if coefficients is not None:
+                raise TypeError(
+                    "`MaskScheme` got both `coefficients` and `mask` (its deprecated "
+                    "alias); give only `coefficients`."
+                )
+            warnings.warn(
+                "`MaskScheme(mask=...)` is deprecated: the argument is now called "
+                "`coefficients`, like the field that holds it; use "
+                "`MaskScheme(coefficients=..., start=...)`.",
+                DeprecationWarning,
+                stacklevel=3,  # the caller, past equinox's __call__
+            )
+            coefficients = mask
+        if coefficients is None or start is None:
+            raise TypeError(
+                "`MaskScheme(coefficients, start)` needs both the mask coefficients and "
+                "`start`, the index k of the first one."
+            )
+        array = as_float_array(coefficients, "MaskScheme(coefficients)")
         if array.ndim != 1 or array.shape[0] < 2:
             raise ValueError(
-                f"`MaskScheme(mask=...)` must be 1-D with at least 2 coefficients, got "
-                f"shape {array.shape}."
+                f"`MaskScheme(coefficients=...)` must be 1-D with at least 2 coefficients, "
+                f"got shape {array.shape}."
             )
         if isinstance(start, bool) or not isinstance(start, (int, np.integer)):
             raise TypeError(f"`MaskScheme(start=...)` must be an int, got {start!r}.")
@@ -50,10 +85,10 @@ class MaskScheme(AbstractCurveScheme):
         self.coefficients = checked_parameter(
             array,
             lambda m: _sub_mask_sums_ok(m, self.start),
-            "`MaskScheme(mask=...)`: the even-indexed and the odd-indexed coefficients "
-            "must each sum to 1 (otherwise the scheme is not affine invariant and does "
-            "not converge).",
-            name="MaskScheme(mask)",
+            "`MaskScheme(coefficients=...)`: the even-indexed and the odd-indexed "
+            "coefficients must each sum to 1 (otherwise the scheme is not affine invariant "
+            "and does not converge).",
+            name="MaskScheme(coefficients)",
         )
 
     @classmethod

@@ -1,10 +1,21 @@
 from typing import ClassVar
 
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._misc import checked_parameter
 from .base import AbstractCurveScheme
+from .parameter import Parameter
+
+
+#: The tweak `t`: 0 is the cubic B-spline ($C^2$), 1 the four-point scheme with
+#: $w = 1/16$ ($C^1$); in between the limit is $C^2$ (`jaxsubdiv.smoothness`), so the
+#: fit keeps `t` in $(0, 1)$. The default 1/2 is Rossignac's Jarek scheme.
+TWEAK = Parameter(
+    "t", default=1 / 2, low=0, high=1, low_open=False, high_open=False, c1=(0, 1),
+    help="split-and-tweak parameter t (0: cubic B-spline, 1/2: Jarek, 1: four-point)",
+)
 
 
 class SplitTweak(AbstractCurveScheme):
@@ -23,7 +34,8 @@ class SplitTweak(AbstractCurveScheme):
 
     **Arguments:**
 
-    - `t`: the tweak, a real number with $0 \le t \le 1$ (traced, differentiable, vmappable).
+    - `t`: the tweak, a real number with $0 \le t \le 1$ (default 1/2, Jarek's scheme;
+      traced, differentiable, vmappable).
 
     Boundaries: `"closed"`, `"open"` ($n \to 2n - 5$), `"clamped"` (reflected ghost
     points, ends kept; note `FourPoint`'s classic clamped rule repeats the end points
@@ -35,13 +47,13 @@ class SplitTweak(AbstractCurveScheme):
 
     t: Float[Array, ""]
     clamp_ghost: ClassVar[str] = "reflect"
+    scheme_name: ClassVar[str] = "split-tweak"
+    scheme_title: ClassVar[str] = "split-and-tweak"
+    scheme_parameters: ClassVar[tuple[Parameter, ...]] = (TWEAK,)
 
-    def __init__(self, t: ArrayLike):
+    def __init__(self, t: ArrayLike = TWEAK.default):
         self.t = checked_parameter(
-            t,
-            lambda t_: (0 <= t_) & (t_ <= 1),
-            "`SplitTweak(t)` needs 0 <= t <= 1.",
-            name="SplitTweak(t)",
+            t, TWEAK.valid, f"`SplitTweak(t)` needs {TWEAK.range_text()}.", name="SplitTweak(t)"
         )
 
     def mask(self) -> Float[Array, " 7"]:
@@ -60,10 +72,45 @@ class SplitTweak(AbstractCurveScheme):
         return -3
 
 
-def Jarek() -> SplitTweak:
-    """Rossignac's "Jarek" scheme: [`jaxsubdiv.SplitTweak`][] with $t = 1/2$.
+# Jarek's mask: SplitTweak's at t = 1/2, exact in binary.
+_JAREK_MASK = (-1 / 32, 1 / 16, 17 / 32, 7 / 8, 17 / 32, 1 / 16, -1 / 32)
 
-    Its limit lies between the cubic B-spline and the four-point curves and stays close
-    to the control polygon.
+
+class Jarek(AbstractCurveScheme):
+    r"""Rossignac's "Jarek" scheme: the split-and-tweak scheme at $t = 1/2$.
+
+    $$Q_{2j} = \tfrac1{16}(V_{j-1} + V_{j+1}) + \tfrac78 V_j, \qquad
+      Q_{2j+1} = \tfrac{17}{32}(V_j + V_{j+1}) - \tfrac1{32}(V_{j-1} + V_{j+2}).$$
+
+    Mask $(-1, 2, 17, 28, 17, 2, -1)/32$ on $k = -3, \dots, 3$: the average of the cubic
+    B-spline and four-point ($w = 1/16$) masks, so the same curve as
+    [`jaxsubdiv.SplitTweak`][]`(1/2)`, but a class of its own without parameters (a
+    constant mask, exact in float64 for the analysis, and saved as `Jarek` in result
+    files). Its limit lies between the cubic B-spline and the four-point curves and stays
+    close to the control polygon; it is $C^2$ (Hölder exponent $3 - \log_2 1.5$).
+
+    Boundaries: as `SplitTweak`: `"closed"`, `"open"` ($n \to 2n - 5$), `"clamped"`
+    (reflected ghost points), creases.
+
+    Reference: J. Rossignac, "Education-driven research in CAD", Computer-Aided Design
+    36 (2004) 1461-1469.
     """
-    return SplitTweak(0.5)
+
+    clamp_ghost: ClassVar[str] = "reflect"
+    scheme_name: ClassVar[str] = "jarek"
+    scheme_title: ClassVar[str] = "Jarek (split-and-tweak, t = 1/2)"
+
+    def mask(self) -> Float[Array, " 7"]:
+        return jnp.array(_JAREK_MASK)
+
+    def host_mask(self) -> np.ndarray:
+        # Exact in float64 whatever JAX's default dtype.
+        return np.array(_JAREK_MASK, np.float64)
+
+    @property
+    def mask_length(self) -> int:
+        return 7
+
+    @property
+    def mask_start(self) -> int:
+        return -3
