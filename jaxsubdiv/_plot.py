@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from ._analysis.limit import limit_points
+from ._analysis.limit import limit_curve
 from ._analysis.smoothness import smoothness
 from ._refine import refine, refined_count
 from ._scheme.base import AbstractCurveScheme
@@ -142,7 +142,8 @@ def _level_points(points, scheme, level: int, boundary: str, max_points: int,
 
     Refined with `refine` while it has at most `max_points` points. Deeper levels are
     drawn as the exact limit points of a shallower level `k` with at least
-    `display_points` points (`limit_points(refine(P, k))`: each level-k point pushed to
+    `display_points` points (`limit_curve(P, scheme, k)`, which is
+    `limit_points(refine(P, k))`: each level-k point pushed to
     its own parameter on the limit curve). A level-L polygon converges to those curve
     points; how far it still is from them is estimated from the levels k - 1 and k,
     whose point-to-limit distance shrinks by a fixed factor per level.
@@ -162,7 +163,7 @@ def _level_points(points, scheme, level: int, boundary: str, max_points: int,
         distances = []
         for j in (k - 1, k):
             polygon = refine(points, scheme, j, boundary=boundary)
-            curve = np.asarray(limit_points(polygon, scheme, boundary=boundary), np.float64)
+            curve = np.asarray(limit_curve(points, scheme, j, boundary=boundary), np.float64)
             cut = (len(polygon) - len(curve)) // 2  # open curves lose ends
             polygon = np.asarray(polygon, np.float64)[cut : len(polygon) - cut]
             distances.append(float(np.max(np.linalg.norm(polygon - curve, axis=-1))))
@@ -382,7 +383,8 @@ def _limit_curve(
 ) -> Float[np.ndarray, "N 2"]:
     """At least `count` exact points of a control polygon's limit curve, in order.
 
-    `limit_points(refine(control_points, scheme, k))` for the first `k` that gives
+    `limit_curve(control_points, scheme, k)` (the same numbers as
+    `limit_points(refine(control_points, scheme, k))`) for the first `k` that gives
     `count` points (the polygon refined once if the scheme has no limit stencil).
 
     **Returns:** a float64 NumPy array `(N, 2)`.
@@ -391,11 +393,10 @@ def _limit_curve(
     k = 0
     while refined_count(len(points), scheme, k, boundary) < count:
         k += 1
-    refined = refine(points, scheme, k, boundary=boundary)
     try:
-        return np.asarray(limit_points(refined, scheme, boundary=boundary), np.float64)
-    except ValueError:
-        return np.asarray(refined, np.float64)
+        return np.asarray(limit_curve(points, scheme, k, boundary=boundary), np.float64)
+    except ValueError:  # no limit stencil (a scheme proven not to converge)
+        return np.asarray(refine(points, scheme, k, boundary=boundary), np.float64)
 
 
 def plot_fit(

@@ -62,6 +62,7 @@ from ._io.result import (
     write_result_json as _write_result,
 )
 from ._io.svg import read_svg, write_bezier_svg, write_svg
+from ._refine import _check_boundary
 from ._scheme.base import AbstractCurveScheme
 
 
@@ -283,8 +284,7 @@ def write_curve_svg(
     """
     check_path(path)
     points = make_outline(path, control_points, False, "the control points").points
-    if boundary not in ("closed", "open", "clamped"):
-        raise ValueError(f"`boundary` must be 'closed', 'open' or 'clamped', got {boundary!r}.")
+    boundary = _check_boundary(boundary, scheme)
     degree = bspline_degree(scheme)
     minimum = {1: 2, 2: 3, 3: 4}.get(degree, 0) if boundary == "open" else 2
     if degree is not None and len(points) >= minimum:

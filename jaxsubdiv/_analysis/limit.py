@@ -16,8 +16,17 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._misc import as_float_array
-from .._refine import refine
+from .._curve_stencil import CurveStencil, build as build_stencil, vertex_offsets
+from .._misc import DEFAULT_MEMORY_BUDGET, as_float_array, checked_budget, static_int
+from .._refine import (
+    BOUNDARIES,
+    _check_boundary,
+    _check_enough_points,
+    _check_memory,
+    _check_scheme,
+    _count,
+    refine,
+)
 from .._scheme.base import AbstractCurveScheme
 from .local import (
     basis_at_integers,
@@ -106,11 +115,8 @@ def _clamped(points: Array, scheme: AbstractCurveScheme, caller: str) -> Array:
 def _derivative(points, scheme, order: int, boundary: str, caller: str) -> Array:
     points = _check_points(points, caller)
     scheme = check_scheme(scheme, caller)
-    if boundary not in ("closed", "open", "clamped"):
-        raise ValueError(
-            f"`{caller}(boundary=...)` must be 'closed', 'open' or 'clamped', got "
-            f"{boundary!r}."
-        )
+    if boundary not in BOUNDARIES:
+        raise ValueError(f"`{caller}(boundary=...)` must be one of {BOUNDARIES}, got {boundary!r}.")
     require_smoothness(scheme, order, caller)
     if boundary == "clamped":
         if scheme.clamp_ghost is None:
@@ -271,3 +277,170 @@ def limit_curvature(
 for _function in (limit_points, limit_tangents, limit_second_derivatives, limit_curvature):
     _function.__doc__ = _function.__doc__.replace("{ARGS}", _ARGS.replace("\n", "\n    "))
 del _function
+
+
+# --------------------------------------------------------------------------------------
+# The limit curve at dyadic parameters, as a stencil table.
+
+
+def curve_stencil(
+    scheme: AbstractCurveScheme,
+    n: int,
+    levels: int,
+    *,
+    boundary: Boundary = "closed",
+    derivative: int | None = 0,
+    dtype=None,
+) -> CurveStencil:
+    r"""The linear map from `n` control points to the limit curve at the dyadic
+    parameters of `levels` levels, as a banded table ([`jaxsubdiv.CurveStencil`][]).
+
+    Output `K` reads the window of `table.width` consecutive control points starting at
+    `table.first[K]` (cyclically on closed curves): after $L$ levels every output of the
+    refinement is a combination of a few control points with weights from the composite
+    mask $a(z) a(z^2) \cdots a(z^{2^{L-1}})$, periodic in `K` with period $2^L$, and the
+    limit stencils ([`jaxsubdiv.limit_stencil`][], [`jaxsubdiv.tangent_stencil`][]) add a
+    few more (N. Dyn, D. Levin, "Subdivision schemes in geometric modelling", Acta
+    Numerica 11 (2002)). The windows are known on the host from the mask's support; the
+    weights are built with `jax.numpy` from the scheme's mask, so they are
+    differentiable and vmappable in its parameters. Memory and work O(N width), never
+    O(N n): use it where [`jaxsubdiv.subdivision_matrix`][] would be too large.
+
+    **Arguments:**
+
+    - `scheme`, `n`, `levels`, `boundary`: as for [`jaxsubdiv.refine`][] (no creases).
+    - `derivative`: 0 for the limit points (`limit_points(refine(P, L))`), 1 for the
+      tangents and 2 for the second derivatives with respect to the level-0 parameter
+      (one unit per control point: $2^L$ and $4^L$ times `limit_tangents` and
+      `limit_second_derivatives` of `refine(P, L)`; clamped curves support 0 only), or
+      `None` for the refined points themselves (`refine(P, L)`). Static.
+    - `dtype`: of the weights (default: the scheme's mask's).
+
+    **Returns:** a `CurveStencil`; `table.apply(P)` gives the outputs, as many as
+    `limit_points(refine(P, L))` has rows (open curves lose the stencil's reach at each
+    end, see [`jaxsubdiv.limit_points`][]).
+    """
+    scheme = _check_stencil_arguments(scheme, n, levels, boundary, derivative, "curve_stencil")
+    dtype = scheme.mask().dtype if dtype is None else jnp.dtype(dtype)
+    return _stencil_jit(scheme, n, levels, boundary, derivative, dtype)
+
+
+def _check_stencil_arguments(scheme, n, levels, boundary, derivative, caller):
+    scheme = _check_scheme(scheme)
+    n = static_int(n, "n", minimum=1)
+    static_int(levels, "levels", minimum=0)
+    boundary = _check_boundary(boundary, scheme)
+    _check_enough_points(n, scheme, boundary)
+    if derivative is not None:
+        static_int(derivative, "derivative", minimum=0, maximum=2)
+        scheme = check_scheme(scheme, caller)
+        require_smoothness(scheme, derivative, caller)
+        if boundary == "open":
+            from_ends = vertex_offsets(scheme.mask_length)[1]  # samples lost at each end
+            refined = _count(n, scheme, levels, "open", ())
+            if refined - 2 * from_ends < 1:
+                raise ValueError(
+                    f"`{caller}` with boundary='open': {n} control points refined "
+                    f"{levels} times give {refined} points, too few for the limit "
+                    f"stencils, which lose {from_ends} at each end. Use more control "
+                    "points or more levels."
+                )
+        if boundary == "clamped" and derivative > 0:
+            raise ValueError(
+                f"`{caller}` does not support derivatives with boundary='clamped': the "
+                "derivatives at a clamped end depend on the end rule's own "
+                "eigen-structure, which is not implemented. Use boundary='closed' or "
+                "'open', or derivative=0."
+            )
+    return scheme
+
+
+def _stencil(scheme, n, levels, boundary, derivative, dtype) -> CurveStencil:
+    """`curve_stencil` without the checks (traceable: the scheme may be traced)."""
+    if derivative is None:
+        rows_of = lambda E, b: refine(E, scheme, levels, boundary=b)
+    else:
+        scale = 2.0 ** (derivative * levels)  # per refined sample -> per control point
+        rows_of = lambda E, b: scale * _derivative(
+            refine(E, scheme, levels, boundary=b), scheme, derivative, b, "curve_stencil"
+        )
+    return build_stencil(scheme, n, levels, boundary, rows_of, limit=derivative is not None,
+                         dtype=dtype)
+
+
+# One compiled program per (scheme type, n, levels, boundary, derivative, dtype) when
+# called eagerly, instead of one per operation of the build.
+_stencil_jit = eqx.filter_jit(_stencil)
+
+
+def _limit_curve(points, scheme, levels, boundary, derivative):
+    table = _stencil(scheme, points.shape[-2], levels, boundary, derivative, points.dtype)
+    return table.apply(points)
+
+
+# Compiled once per (scheme type, shapes, dtype, levels, boundary, derivative).
+_limit_curve_jit = eqx.filter_jit(_limit_curve)
+
+
+def limit_curve(
+    points: Float[ArrayLike, "*batch n d"],
+    scheme: AbstractCurveScheme,
+    levels: int,
+    *,
+    boundary: Boundary = "closed",
+    derivative: int = 0,
+    memory_budget: int = DEFAULT_MEMORY_BUDGET,
+) -> Float[Array, "*batch N d"]:
+    r"""Exact points (or derivatives) of the limit curve at the dyadic parameters of
+    `levels` levels.
+
+    The same numbers as `limit_points(refine(points, scheme, levels))`, computed in one
+    gather and one product from a [`jaxsubdiv.curve_stencil`][] table: output $K$ is
+    $C(t_K) = \sum_m w_{K,m} P_{f_K + m}$, where the weights combine the composite mask
+    $a(z) a(z^2) \cdots a(z^{2^{L-1}})$ of the $L$ levels with the vertex limit stencil
+    $\varphi(m)$ of the scheme's basic limit function (N. Dyn, D. Levin, "Subdivision
+    schemes in geometric modelling", Acta Numerica 11 (2002)). Closed curves have
+    $t_K = K/2^L - c(1 - 2^{-L})$ for the mask's center $c$
+    ([`jaxsubdiv.AbstractCurveScheme.center`][]), $K = 0, \dots, 2^L n - 1$; open curves
+    keep the samples whose stencils lie inside the polygon (as `limit_points` with
+    `boundary="open"`), clamped ones start and end at the end points.
+
+    Derivatives are a keyword, not a second function: `derivative=1` gives $dC/dt$ and
+    `derivative=2` gives $d^2C/dt^2$ with respect to the level-0 parameter $t$ (one unit
+    per control point), so the samples of every `levels` are samples of the same
+    functions (like `scipy.interpolate.BSpline(x, nu)`); the scheme must be $C^1$ or
+    $C^2$. Clamped curves support `derivative=0` only (see `limit_tangents`).
+
+    **Arguments:**
+
+    - `points`: control points `(..., n, d)`; leading axes are batch axes.
+      Differentiable, and the scheme's parameters too; works under `jit`, `vmap` and
+      `grad`.
+    - `scheme`: the curve scheme; a concrete scheme that is not smooth enough is an
+      error (with traced parameters the check is skipped, as for `limit_points`).
+    - `levels`: number of levels (a Python int >= 0): $2^L$ samples per control point
+      on closed curves.
+    - `boundary`: `"closed"`, `"open"` or `"clamped"` (keyword only).
+    - `derivative`: 0, 1 or 2 (keyword only).
+    - `memory_budget`: as for [`jaxsubdiv.refine`][] (default 2 GiB); the estimate adds
+      the table and its gathered windows (`N x width` weights and `N x width x d`
+      coordinates). Checked before anything is built.
+
+    **Returns:** `(..., N, d)`, with `N` as for `limit_points(refine(points, ...))`.
+    """
+    points = _check_points(points, "limit_curve")
+    levels = static_int(levels, "levels", minimum=0)
+    derivative = static_int(derivative, "derivative", minimum=0, maximum=2)
+    scheme = _check_stencil_arguments(
+        scheme, points.shape[-2], levels, boundary, derivative, "limit_curve"
+    )
+    n, d = points.shape[-2:]
+    batch, itemsize = math.prod(points.shape[:-2]), jnp.dtype(points.dtype).itemsize
+    extra = 0
+    if levels <= 64:  # beyond, `_check_memory` refuses from the bit length alone
+        width = scheme.mask_length + 2  # a bound of the table's width
+        count = _count(n, scheme, levels, boundary, ())
+        extra = count * width * (itemsize + 8 + max(1, batch * d) * itemsize)
+    _check_memory(n, d, batch, itemsize, scheme, levels, boundary, (),
+                  checked_budget(memory_budget), extra=extra, caller="limit_curve")
+    return _limit_curve_jit(points, scheme, levels, boundary, derivative)

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from .._analysis.limit import limit_points
+from .._analysis.limit import limit_curve
 from .._refine import refine
 from .._scheme.base import AbstractCurveScheme
 
@@ -84,12 +84,12 @@ def bezier_segments(points: np.ndarray, degree: int, boundary: str) -> np.ndarra
 def dense_curve(
     points: np.ndarray, scheme: AbstractCurveScheme, boundary: str, levels: int | None
 ) -> np.ndarray:
-    """Exact limit points at the dyadic parameters of `levels` levels (default: enough
-    for about 2048 points); the refined polygon when the scheme has no limit stencil."""
+    """Exact limit points at the dyadic parameters of `levels` levels
+    ([`jaxsubdiv.limit_curve`][]; default: enough for about 2048 points); the refined
+    polygon when the scheme has no limit stencil."""
     if levels is None:
         levels = max(1, math.ceil(math.log2(2048 / len(points))))
-    refined = refine(points, scheme, levels, boundary=boundary)
     try:
-        return np.asarray(limit_points(refined, scheme, boundary=boundary), dtype=np.float64)
-    except ValueError:
-        return np.asarray(refined, dtype=np.float64)
+        return np.asarray(limit_curve(points, scheme, levels, boundary=boundary), np.float64)
+    except ValueError:  # no limit stencil (a scheme proven not to converge)
+        return np.asarray(refine(points, scheme, levels, boundary=boundary), np.float64)

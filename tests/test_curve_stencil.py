@@ -1,0 +1,355 @@
+"""Curve stencil tables (`jaxsubdiv.curve_stencil`, `jaxsubdiv.limit_curve`).
+
+Checked against refine + limit_points/limit_tangents, against plain numpy written here
+(refinement by the mask's definition, limit stencils from numpy's eigenvectors), against
+scipy's B-splines for the B-spline schemes, against central finite differences, and for
+affine invariance. Cases share shapes (n is the minimum or 9) to keep the number of
+compiled programs small.
+"""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from helpers import (
+    all_schemes,
+    bspline_schemes,
+    parametrised_schemes,
+    refine_by_definition,
+)
+
+import jaxsubdiv as js
+
+
+def _limit_minimum(scheme, boundary, levels):
+    """The fewest control points whose refined polygon still has limit samples."""
+    reach = len(js.neighborhood(scheme, "vertex")) // 2
+    for n in range(2 if boundary != "closed" else 3, 40):
+        try:
+            count = js.refined_count(n, scheme, levels, boundary)
+        except ValueError:
+            continue
+        if boundary != "open" or count - 2 * reach >= 1:
+            return n
+    raise AssertionError("no n found")
+
+
+def _cases():
+    """(id, scheme, boundary, n, levels): every built-in scheme with each boundary it
+    supports, the fewest control points and 9, levels 1..4 in turn."""
+    cases = []
+    for name, scheme in all_schemes():
+        for boundary in ("closed", "open", "clamped"):
+            if boundary == "clamped" and scheme.clamp_ghost is None:
+                continue
+            levels = 1 + len(cases) % 4
+            for n in sorted({_limit_minimum(scheme, boundary, levels), 9}):
+                cases.append(
+                    pytest.param(scheme, boundary, n, levels,
+                                 id=f"{name}-{boundary}-n{n}-L{levels}")
+                )
+    return cases
+
+
+CASES = _cases()
+_SMOOTHNESS = {}
+
+
+def _continuity(scheme) -> int:
+    key = repr(scheme)
+    if key not in _SMOOTHNESS:
+        _SMOOTHNESS[key] = js.smoothness(scheme).continuity
+    return _SMOOTHNESS[key]
+
+
+def _orders(scheme, boundary):
+    """Derivative orders the scheme has (clamped ends: positions only)."""
+    if boundary == "clamped":
+        return [0]
+    return list(range(min(_continuity(scheme), 2) + 1))
+
+
+def _points(n, seed=0):
+    return np.random.default_rng(seed).standard_normal((n, 2))
+
+
+# --------------------------------------------------------------------------------------
+# Plain numpy references.
+
+
+def _basis_at_integers(mask, start, order):
+    """phi^(p) at the integers inside its support: the eigenvector of A_ij = a_{2i-j}
+    for eigenvalue 2^-p (numpy's eig), normalised by sum_m (-m)^p phi^(p)(m) = p!."""
+    length = len(mask)
+    points = list(range(start + 1, start + length - 1))
+    A = np.array([[mask[2 * i - j - start] if 0 <= 2 * i - j - start < length else 0.0
+                   for j in points] for i in points])
+    values, vectors = np.linalg.eig(A)
+    v = np.real(vectors[:, np.argmin(np.abs(values - 2.0**-order))])
+    norm = sum((-m) ** order * x for m, x in zip(points, v))
+    return dict(zip(points, v * math.factorial(order) / norm))
+
+
+def _basis(mask, start, order, x2):
+    """phi^(p)(x2 / 2), from the integers by the refinement equation at half-integers."""
+    at = _basis_at_integers(mask, start, order)
+    if x2 % 2 == 0:
+        return at.get(x2 // 2, 0.0)
+    total = 0.0
+    for j, value in at.items():
+        k = x2 - j  # phi(m + 1/2) = 2^p sum_j a_{2m+1-j} phi(j)
+        if 0 <= k - start < len(mask):
+            total += mask[k - start] * value
+    return 2.0**order * total
+
+
+def _numpy_limit(Q, mask, start, order, boundary):
+    """The vertex limit stencil phi^(p)(c - u), |u| < (L-1)/2, over the refined polygon."""
+    length = len(mask)
+    c2 = 2 * start + length - 1  # twice the center
+    offsets = [u for u in range(-length, length + 1) if 2 * abs(u) < length - 1]
+    weights = [_basis(mask, start, order, c2 - 2 * u) for u in offsets]
+    N = len(Q)
+    if boundary == "closed":
+        return sum(w * np.roll(Q, -u, axis=0) for w, u in zip(weights, offsets))
+    a = max(offsets)
+    return sum(w * Q[a + u : N - a + u] for w, u in zip(weights, offsets))
+
+
+def _mask(scheme):
+    return np.asarray(scheme.mask(), np.float64)
+
+
+# --------------------------------------------------------------------------------------
+# The table against refine + limit stencils.
+
+
+@pytest.mark.parametrize("scheme, boundary, n, levels", CASES)
+def test_table_against_refine_plain_numpy_and_affine_invariance(scheme, boundary, n, levels):
+    """One table per derivative order, checked three ways (one test, so each table's
+    programs are compiled once):
+
+    - `limit_curve` = `limit_points(refine(P, L))`, and its derivatives 2^L and 4^L times
+      `limit_tangents` and `limit_second_derivatives` of `refine(P, L)`;
+    - closed and open curves against numpy: refinement by the definition
+      Q_K = sum_j a_{K-2j} P_j, then the limit stencils from numpy's eigenvectors; the
+      refined-points table (`derivative=None`) against the refinement alone;
+    - every position row (limit and refined) sums to 1, every derivative row to 0:
+      translating the control points translates the curve and leaves its derivatives.
+    """
+    P = _points(n)
+    mask, start = _mask(scheme), scheme.mask_start
+    Q = js.refine(P, scheme, levels, boundary=boundary)
+    library = [js.limit_points, js.limit_tangents, js.limit_second_derivatives]
+    for order in [None, *_orders(scheme, boundary)]:
+        table = js.curve_stencil(scheme, n, levels, boundary=boundary, derivative=order)
+        got = table.apply(P)
+        assert table.weights.shape == (len(table.first), table.width)
+        if order is None:
+            expected = (refine_by_definition(P, mask, start, levels, boundary)
+                        if boundary != "clamped" else np.asarray(Q))
+            np.testing.assert_allclose(got, expected, atol=1e-12)
+        else:
+            expected = 2.0 ** (order * levels) * library[order](Q, scheme, boundary=boundary)
+            scale = 1 + float(jnp.max(jnp.abs(expected)))
+            np.testing.assert_allclose(got, expected, atol=1e-12 * scale)
+            np.testing.assert_allclose(
+                js.limit_curve(P, scheme, levels, boundary=boundary, derivative=order),
+                expected, atol=1e-12 * scale)
+            if boundary != "clamped":
+                plain = refine_by_definition(P, mask, start, levels, boundary)
+                expected = 2.0 ** (order * levels) * _numpy_limit(plain, mask, start, order,
+                                                                   boundary)
+                np.testing.assert_allclose(got, expected,
+                                           atol=1e-9 * (1 + np.max(np.abs(expected))))
+        sums = np.asarray(jnp.sum(table.weights, axis=1))
+        target = 1.0 if order in (None, 0) else 0.0
+        np.testing.assert_allclose(sums, target, atol=1e-12 * 2.0 ** ((order or 0) * levels))
+
+
+@pytest.mark.parametrize("name, scheme, degree", bspline_schemes)
+@pytest.mark.parametrize("boundary", ["closed", "open", "clamped"])
+def test_bspline_schemes_match_scipy(name, scheme, degree, boundary):
+    """Uniform B-spline schemes: samples and derivatives of scipy's BSpline at the dyadic
+    parameters t_K = K / 2^L - c (1 - 2^-L) (closed); open curves keep those where the
+    curve is complete; the clamped cubic B-spline is the open curve of the polygon with
+    reflected ghost points 2 P_0 - P_1, 2 P_{n-1} - P_{n-2}."""
+    from scipy.interpolate import BSpline
+
+    if boundary == "clamped" and degree != 3:
+        pytest.skip("the ghost-point closed form is the cubic B-spline's")
+    levels, n = 3, 9
+    P = _points(n, seed=2)
+    c = scheme.center
+    shift = c - scheme.mask_start  # phi(x) = B(x + shift), B on knots 0..degree+1
+    R = 2**levels
+    if boundary == "closed":
+        pad = degree + 3
+        ext = np.array([P[(i - pad) % n] for i in range(n + 2 * pad)])
+        t = np.arange(n * R) / R - c * (1 - 1 / R)
+        u = t + shift + pad
+    elif boundary == "open":
+        # The dyadic parameters where every basis function phi(x - j) that is not zero
+        # has 0 <= j < n: x in [start + L - 2, n + start] for a mask of length L.
+        ext = P
+        low, high = scheme.mask_start + scheme.mask_length - 2, n + scheme.mask_start
+        t = np.arange(-4 * n * R, 4 * n * R) / R - c * (1 - 1 / R)
+        u = t[(t >= low - 1e-12) & (t <= high + 1e-12)] - scheme.mask_start
+    else:
+        ext = np.concatenate([2 * P[:1] - P[1:2], P, 2 * P[-1:] - P[-2:-1]])
+        u = np.arange((n - 1) * R + 1) / R + shift + 1
+    spline = BSpline(np.arange(len(ext) + degree + 1, dtype=float), ext, degree)
+    orders = [0] if boundary == "clamped" else range(min(degree - 1, 2) + 1)
+    for order in orders:
+        expected = spline.derivative(order)(u) if order else spline(u)
+        got = js.limit_curve(P, scheme, levels, boundary=boundary, derivative=order)
+        np.testing.assert_allclose(got, expected, atol=1e-11)
+
+
+@pytest.mark.parametrize("name, make, x", parametrised_schemes)
+@pytest.mark.parametrize("boundary", ["closed", "open"])
+def test_gradient_matches_finite_differences(name, make, x, boundary):
+    """d/dx of a random projection of the limit points (and tangents, for C1 schemes),
+    x = w, r, s, t or a mask entry, against central differences."""
+    n, levels = 9, 2
+    P = _points(n, seed=3)
+    for order in _orders(make(x), boundary)[:2]:
+        N = len(js.limit_curve(P, make(x), levels, boundary=boundary, derivative=order))
+        G = np.random.default_rng(4).standard_normal((N, 2))
+        f = lambda x: jnp.sum(G * js.limit_curve(P, make(x), levels, boundary=boundary,
+                                                 derivative=order))
+        h = 1e-6
+        central = (float(f(x + h)) - float(f(x - h))) / (2 * h)
+        np.testing.assert_allclose(float(jax.grad(f)(x)), central, rtol=1e-6, atol=1e-8)
+
+
+def test_vmap_and_jit_over_a_parameter():
+    P = _points(9, seed=5)
+    ws = jnp.asarray([0.03, 0.05, 0.07])
+    batched = jax.vmap(lambda w: js.limit_curve(P, js.FourPoint(w), 3, derivative=1))(ws)
+    for w, got in zip(ws, batched):
+        Q = js.refine(P, js.FourPoint(float(w)), 3)
+        np.testing.assert_allclose(got, 8 * js.limit_tangents(Q, js.FourPoint(float(w))),
+                                   atol=1e-12)
+    jitted = jax.jit(lambda w: js.curve_stencil(js.FourPoint(w), 9, 3).apply(P))(0.05)
+    np.testing.assert_allclose(jitted, js.limit_points(js.refine(P, js.FourPoint(0.05), 3),
+                                                       js.FourPoint(0.05)), atol=1e-12)
+
+
+def test_width_does_not_grow_with_the_polygon():
+    """O(N width) storage: the windows are as wide for 40 control points as for 9 (the
+    cubic B-spline's limit point reads at most 4 consecutive control points)."""
+    for boundary in ("closed", "open", "clamped"):
+        small = js.curve_stencil(js.CubicBSpline(), 9, 5, boundary=boundary)
+        large = js.curve_stencil(js.CubicBSpline(), 40, 5, boundary=boundary)
+        assert small.width == large.width <= 4 + 2 * (boundary == "clamped")
+        assert large.weights.shape == (js.refined_count(40, js.CubicBSpline(), 5, boundary)
+                                       - 2 * (boundary == "open"), large.width)
+
+
+def test_clear_errors():
+    P = _points(9)
+    with pytest.raises(ValueError, match="derivative"):
+        js.limit_curve(P, js.CubicBSpline(), 2, derivative=3)
+    with pytest.raises(ValueError, match="clamped"):
+        js.limit_curve(P, js.CubicBSpline(), 2, boundary="clamped", derivative=1)
+    with pytest.raises(ValueError, match="C2"):
+        js.limit_curve(P, js.Chaikin(), 2, derivative=2)
+    with pytest.raises(ValueError, match="too few"):
+        js.curve_stencil(js.Chaikin(), 2, 2, boundary="open")
+    with pytest.raises(ValueError, match="n=9"):
+        js.curve_stencil(js.CubicBSpline(), 9, 2).apply(_points(8))
+    with pytest.raises(ValueError, match="boundary"):
+        js.limit_curve(P, js.CubicBSpline(), 2, boundary="periodic")
+
+
+# --------------------------------------------------------------------------------------
+# The fit's Hessian assembly, on the stencil tables, against the dense sums.
+
+
+@pytest.mark.parametrize("n", [8, 24])
+@pytest.mark.parametrize("boundary", ["closed", "open", "clamped"])
+def test_fit_model_equals_dense_assembly(n, boundary):
+    """`Objective.quadratic_model` (assembled by windows of the stencil tables) against
+    the dense sums written here, with the basis built densely by refining the identity:
+    loss B^T W B, gradient and Hessian B^T W B - U^T diag(w / kappa) U plus the
+    curve-to-target and smoothing terms."""
+    from fitting import _curve
+    from fitting._init import second_differences
+    from fitting._objective import BACK_WEIGHT, FitData, Objective
+
+    scheme = js.CubicBSpline()
+    hermite = boundary != "clamped"
+    t = np.linspace(0, 2 * np.pi, 60, endpoint=boundary != "closed")[: 60 if boundary == "closed" else 45]
+    samples = jnp.asarray(np.stack([np.cos(t) + 0.2 * np.cos(3 * t), np.sin(t)], -1))
+    m = samples.shape[0]
+    levels = 4
+    N = _curve.curve_samples(scheme, n, levels, boundary)
+    objective = Objective(n=n, levels=levels, boundary=boundary, names=(), hermite=hermite,
+                          num_curve=N, num_target=m)
+    weights = jnp.asarray(np.random.default_rng(3).uniform(0.5, 1.5, m))
+    args = FitData(samples, weights, scheme, jnp.sqrt(0.01), objective.basis_of(scheme, jnp.float64), None)
+    # The dense basis, independently: refine the identity, push it to the limit.
+    refined = js.refine(jnp.eye(n), scheme, levels, boundary=boundary)
+    A = js.limit_points(refined, scheme, boundary=boundary)
+    V = js.limit_tangents(refined, scheme, boundary=boundary) if hermite else None
+    np.testing.assert_allclose(args.basis[0], A, atol=1e-13)
+    theta = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    P = jnp.asarray(np.stack([np.cos(theta), 0.9 * np.sin(theta)], -1))
+    # One compiled program for the library's model and one for the dense sums (op by
+    # op, this test compiled over 200 small programs per case).
+    @jax.jit
+    def model_and_dense(P, A, V):
+        y = {"control": P, "params": {}}
+        feet = objective.feet(y, args)
+        loss, gradient, hessian = objective.quadratic_model(y, args, feet)
+
+        tau, segment, fraction = feet
+        closed = boundary == "closed"
+        rows, slope_rows, bend_rows = _curve.evaluate(A, V, tau, closed, order=2)
+        w = weights * (m / jnp.sum(weights))
+        eye = jnp.eye(2)
+        gap = rows @ P - samples
+        slope, bend = slope_rows @ P, bend_rows @ P
+        line, speed2 = objective._line(tau, slope)
+        kappa = jnp.maximum(speed2 + jnp.sum(gap * bend, -1), 0.5 * speed2)
+        inverse = jnp.where(line, w / jnp.where(line, kappa, 1.0), 0.0)
+        U = (rows[:, :, None] * slope[:, None, :] + slope_rows[:, :, None] * gap[:, None, :])
+        U = U.reshape(m, -1)
+        held = A[objective.held]
+        nxt = (segment + 1) % m if closed else jnp.minimum(segment + 1, m - 1)
+        direction = samples[nxt] - samples[segment]
+        length2 = jnp.sum(direction**2, -1)
+        inside = (fraction > 0) & (fraction < 1) & (length2 > 0)
+        unit = direction / jnp.sqrt(jnp.where(inside, length2, 1.0))[:, None]
+        normal = jnp.where(inside[:, None, None], eye - unit[:, :, None] * unit[:, None, :], eye)
+        foot = samples[segment] + fraction[:, None] * direction
+        weight = BACK_WEIGHT * m / held.shape[0]
+        back = jnp.einsum("kac,kc->ka", normal, held @ P - foot)
+        band = objective._band(samples, segment, None)
+        square = jnp.sum(back**2, -1)
+        active = square > band**2
+        length = jnp.sqrt(jnp.where(active, square, 1.0))
+        excess = jnp.where(active, length - band, 0.0)
+        unit_back = back / length[:, None]
+        spread = (held[:, :, None] * jnp.where(active[:, None], unit_back, 0.0)[:, None, :])
+        spread = spread.reshape(held.shape[0], -1)
+        D = second_differences(n, closed, jnp.float64)
+        dense_loss = w @ jnp.sum(gap**2, -1) + weight * jnp.sum(excess**2)
+        dense_loss += (0.01 / n) * jnp.sum((D @ P) ** 2)
+        dense_gradient = (rows.T @ (w[:, None] * gap)).reshape(-1)
+        dense_gradient += weight * (held.T @ (excess[:, None] * unit_back)).reshape(-1)
+        dense_gradient += (0.01 / n) * (D.T @ (D @ P)).reshape(-1)
+        dense_hessian = jnp.kron(rows.T @ (w[:, None] * rows), eye) - U.T @ (inverse[:, None] * U)
+        dense_hessian += weight * (spread.T @ spread) + (0.01 / n) * jnp.kron(D.T @ D, eye)
+
+        return (loss, gradient, hessian), (dense_loss, dense_gradient, dense_hessian)
+
+    (loss, gradient, hessian), (dense_loss, dense_gradient, dense_hessian) = (
+        model_and_dense(P, A, V))
+    scale = float(jnp.max(jnp.abs(dense_hessian)))
+    np.testing.assert_allclose(loss, dense_loss, rtol=1e-12)
+    np.testing.assert_allclose(gradient, dense_gradient, atol=1e-12 * scale)
+    np.testing.assert_allclose(hessian, dense_hessian, atol=1e-12 * scale)
