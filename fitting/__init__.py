@@ -4,13 +4,16 @@ Fit control polygons, and scheme parameters such as `r`, `s`, `w` and `t`, to sa
 outlines; one at a time or in batches; differentiably.
 """
 
-from ._fit import (
+from ._batch import fit_batch as fit_batch
+from ._checks import (
     ORDER_SAMPLES_LIMIT as ORDER_SAMPLES_LIMIT,
-    STATUSES as STATUSES,
-    FitResult as FitResult,
-    fit as fit,
-    fit_batch as fit_batch,
     fit_memory as fit_memory,
 )
+from ._fit import fit as fit
 from ._init import order_samples as order_samples
 from ._progress import progress_verbose as progress_verbose
+from ._result import (
+    STATUSES as STATUSES,
+    FitResult as FitResult,
+    FitStatus as FitStatus,
+)

@@ -12,10 +12,10 @@ kappa.
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float, Int
 
 import jaxsubdiv as js
-from jaxsubdiv._analysis.limit import limit_points, limit_tangents
 
 
 def _segment_ends(curve, closed):
@@ -356,22 +356,30 @@ def distances(
     return safe_norm(foot_residual(*differentiable, segment, fraction, closed))
 
 
+def curve_tables(
+    scheme, n: int, levels: int, boundary: str, dtype, tangents: bool
+) -> tuple[js.CurveStencil, js.CurveStencil | None]:
+    """The curve's samples and tangents as banded linear maps of the control points
+    ([`jaxsubdiv.curve_stencil`][]): row `K` of the first gives the limit point at
+    dyadic position `K`, row `K` of the second its exact derivative with respect to `K`
+    (one unit per sample), or `None` when `tangents` is False. Both read the same
+    windows of control points. Differentiable in the scheme's parameters; O(N width)."""
+    position = js.curve_stencil(scheme, n, levels, boundary=boundary, dtype=dtype)
+    if not tangents:
+        return position, None
+    tangent = js.curve_stencil(scheme, n, levels, boundary=boundary, derivative=1, dtype=dtype)
+    # `curve_stencil` differentiates with respect to the control points' parameter;
+    # the fit's positions count samples, 2^levels of them per control point.
+    return position, eqx.tree_at(lambda t: t.weights, tangent, tangent.weights / 2**levels)
+
+
 def curve_basis(
     scheme, n: int, levels: int, boundary: str, dtype, tangents: bool
 ) -> tuple[Float[Array, "N n"], Float[Array, "N n"] | None]:
-    """The curve's samples and tangents as linear maps of the control points.
-
-    Row `K` of the first matrix gives the limit point at dyadic position `K` (the curve is
-    linear in the control points, so its polyline for `P = I` is the basis); row `K` of
-    the second its exact derivative with respect to `K` (one unit per sample), or `None`
-    when `tangents` is False. Differentiable in the scheme's parameters.
-    """
-    eye = jnp.eye(n, dtype=dtype)
-    refined = js.refine(eye, scheme, levels, boundary=boundary)
-    position = limit_points(refined, scheme, boundary=boundary)
-    if not tangents:
-        return position, None
-    return position, limit_tangents(refined, scheme, boundary=boundary)
+    """`curve_tables` as dense `(N, n)` matrices (for the linear initial fit and the
+    curve's samples `A @ P`)."""
+    position, tangent = curve_tables(scheme, n, levels, boundary, dtype, tangents)
+    return position.dense(), None if tangent is None else tangent.dense()
 
 
 class Band(eqx.Module):
@@ -387,37 +395,36 @@ class Band(eqx.Module):
     ends: Float[Array, "N 4 width"]
 
 
-def band_basis(
-    A: Float[Array, "N n"], V: Float[Array, "N n"] | None, width: int, closed: bool
-) -> Band:
-    """The basis `A` (and tangents `V`) by segments in windows of `width` control points.
+def band_basis(position: js.CurveStencil, tangent: js.CurveStencil | None) -> Band:
+    """The curve's tables (`curve_tables`) by segments, read off their windows.
 
-    A uniform binary scheme with a mask of `width` coefficients has a basic limit function
-    supported on `width - 1` intervals, so a limit point or tangent depends on at most
-    `width - 1` consecutive control points and a segment between two samples on `width`.
-    Each segment's window is the one holding the most of its rows' weight (all of it;
-    checked: a row reaching outside its window would be a defect of this function, never
-    of the data, and makes the rows NaN, so the fit fails visibly instead of silently.
-    Not `eqx.error_if`: its host callback would keep JAX from writing the compiled fit
-    to the persistent compilation cache).
+    Sample `k` reads control points `first[k] ... first[k] + w - 1`, and `first` grows by
+    0 or 1 from one sample to the next (a host fact of the table's layout), so segment
+    `k` reads the `w + 1` control points from `first[k]`: the next sample's row is its
+    own, shifted by that step.
     """
-    N, n = A.shape
-    V = jnp.zeros_like(A) if V is None else V
-    nxt = (jnp.arange(N) + 1) % N if closed else jnp.minimum(jnp.arange(N) + 1, N - 1)
-    weight = jnp.abs(A) + jnp.abs(V)
-    weight = weight + weight[nxt]
-    starts = n if closed else n - width + 1
-    columns = jnp.arange(starts)[:, None] + jnp.arange(width)[None, :]
-    columns = columns % n if closed else columns
-    held = jnp.sum(weight[:, columns], -1)  # (N, starts): each window's share
-    start = jnp.argmax(held, axis=1)
-    outside = jnp.sum(weight, 1) - held[jnp.arange(N), start]
-    window = start[:, None] + jnp.arange(width)[None, :]
-    window = window % n if closed else window
-    rows = lambda M: jnp.take_along_axis(M, window, axis=1)
-    ends = jnp.stack([rows(A), rows(V), rows(A[nxt]), rows(V[nxt])], axis=1)
-    ends = jnp.where(jnp.max(outside) > 1e-9 * jnp.max(weight), jnp.nan, ends)
-    return Band(start=start, ends=ends)
+    first, n, width = position.first, position.n, position.width
+    N = len(first)
+    nxt = (np.arange(N) + 1) % N if position.closed else np.minimum(np.arange(N) + 1, N - 1)
+    step = first[nxt] - first
+    step = step % n if position.closed else step
+    if not np.all((step == 0) | (step == 1)):  # static: a defect here, never the data's
+        raise AssertionError(f"curve table windows step by {sorted(set(step.tolist()))}")
+    column = np.arange(width + 1)[None, :]
+    here = np.broadcast_to(column, (N, width + 1))  # column `width` is the zero one
+    there = column - step[:, None]
+    there = np.where((there >= 0) & (there < width), there, width)
+
+    def padded(table):  # the rows with a zero column at `width`
+        if table is None:
+            return jnp.zeros((N, width + 1), position.weights.dtype)
+        return jnp.concatenate([table.weights, jnp.zeros((N, 1), table.weights.dtype)], 1)
+
+    A, V = padded(position), padded(tangent)
+    take = lambda M, index, rows: jnp.take_along_axis(M[rows], jnp.asarray(index), axis=1)
+    ends = jnp.stack([take(A, here, slice(None)), take(V, here, slice(None)),
+                      take(A, there, nxt), take(V, there, nxt)], axis=1)
+    return Band(start=jnp.asarray(first, jnp.int32), ends=ends)
 
 
 def band_rows(
@@ -433,8 +440,9 @@ def band_rows(
     ends = band.ends[segment]  # (m, 4, width)
     combine = lambda h: jnp.einsum("hm,mhw->mw", h, ends)
     width = ends.shape[-1]
-    window = band.start[segment][:, None] + jnp.arange(width)[None, :]
-    window = window % n if closed else window
+    # Modulo n also on open curves: a window of a polygon with fewer points than the
+    # window (n < width) has zero weights beyond its last point.
+    window = (band.start[segment][:, None] + jnp.arange(width)[None, :]) % n
     return window, combine(values), combine(slopes), combine(bends)
 
 

@@ -21,23 +21,28 @@ Gauss-Newton-type steps converge fast and to a well-defined optimum. Other schem
 corner cutting, which is only $C^0$ for most (r, s)) use the chords between samples.
 """
 
-from typing import Any, NamedTuple
+from typing import Any
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.flatten_util import ravel_pytree
+from jaxtyping import Array, ArrayLike, Float, Int
+
+from jaxsubdiv import AbstractCurveScheme
 
 from ._curve import (
     band_basis,
     band_rows,
     chord_band,
-    curve_basis,
+    curve_tables,
+    distances,
     evaluate,
     foot_residual,
     locate,
     project,
+    safe_norm,
     track,
 )
 from ._init import second_differences
@@ -49,12 +54,12 @@ from ._params import from_unconstrained
 BACK_WEIGHT = 0.1
 
 
-class FitData(NamedTuple):
-    """The data of one fit, every field traced (new values reuse the compiled program).
+class FitData(eqx.Module):
+    """The data of one fit: arrays, traced (new values reuse the compiled program).
 
-    - `target`: `(m, d)` samples in units of the outline's size; the first `count` are
-      the outline, the rest padding (copies of the last sample, weight 0) up to the
-      program's sample-count bucket.
+    - `target`: `(m, d)` samples (in units of the outline's size inside the solve); the
+      first `count` are the outline, the rest padding (copies of the last sample,
+      weight 0) up to the program's sample-count bucket.
     - `weights`: `(m,)`, zero for ignored samples and the padding.
     - `scheme`: the scheme at its starting parameters.
     - `root_smoothing`: the square root of the smoothing weight (the residual rows are
@@ -63,19 +68,33 @@ class FitData(NamedTuple):
       as the square root's).
     - `basis`: `Objective.basis_of(scheme)` when no scheme parameter is fitted
       (computed once, outside the solver loop), else None.
-    - `count`: the number of samples before padding.
+    - `count`: the number of samples before padding (None: no padding).
     """
 
-    target: Any
-    weights: Any
-    scheme: Any
-    root_smoothing: Any
-    basis: Any
-    count: Any
+    target: Float[Array, "m d"]
+    weights: Float[Array, " m"]
+    scheme: AbstractCurveScheme
+    root_smoothing: Float[ArrayLike, ""]
+    basis: Any = None
+    count: Int[ArrayLike, ""] | None = None
+
+
+class TwoSidedErrors(eqx.Module):
+    """RMS and largest distances of a fit in each direction (`Objective.errors`)."""
+
+    rms_target_to_curve: Float[Array, ""]
+    max_target_to_curve: Float[Array, ""]
+    rms_curve_to_target: Float[Array, ""]
+    max_curve_to_target: Float[Array, ""]
 
 
 class Objective(eqx.Module):
-    """The residuals of one fit (static settings; the data come in `args`)."""
+    """The residuals of one fit, and its errors: the static settings, built on the host.
+
+    Every field is static (hashable), so the objective is passed to the compiled fit as
+    one static argument: equal settings select the same compiled program, and the data,
+    tolerances and smoothing come in as traced arrays (`FitData`).
+    """
 
     n: int = eqx.field(static=True)
     levels: int = eqx.field(static=True)
@@ -84,8 +103,6 @@ class Objective(eqx.Module):
     hermite: bool = eqx.field(static=True)
     num_curve: int = eqx.field(static=True)  # curve samples N
     num_target: int = eqx.field(static=True)  # target samples m (including padding)
-    # Window of the banded Hessian assembly (the scheme's mask length), or 0: dense.
-    band: int = eqx.field(static=True, default=0)
 
     @property
     def closed(self) -> bool:
@@ -103,10 +120,12 @@ class Objective(eqx.Module):
 
     def basis_of(self, scheme, dtype):
         """The curve's basis matrices (samples, tangents or None) for `scheme`, and the
-        same by segments (`_curve.Band`) for the banded assembly (or None)."""
-        A, V = curve_basis(scheme, self.n, self.levels, self.boundary, dtype, self.hermite)
-        band = band_basis(A, V, self.band, self.closed) if self.band else None
-        return A, V, band
+        same by segments (`_curve.Band`) for the Hessian's assembly, both from the
+        curve's stencil tables (`_curve.curve_tables`)."""
+        tables = curve_tables(scheme, self.n, self.levels, self.boundary, dtype, self.hermite)
+        position, tangent = tables
+        V = None if tangent is None else tangent.dense()
+        return position.dense(), V, band_basis(*tables)
 
     def basis(self, y, args):
         """The scheme at `y`'s parameters and its basis (`basis_of`)."""
@@ -205,6 +224,47 @@ class Objective(eqx.Module):
         implicit adjoint; see `residuals_at` for how the feet enter the derivatives)."""
         return self.residuals_at(y, args, self.feet(y, args))
 
+    def errors(self, y, data: FitData, feet=None) -> tuple[Array, TwoSidedErrors]:
+        """The curve at `y` (its samples `(N, d)`) and its two-sided distances to the
+        samples of `data`, in their units.
+
+        Target to curve: each sample's distance to the curve (on the Hermite curve, to
+        its nearest point found by `_curve.locate`, so never below the true distance;
+        else to the chords), RMS over the samples with non-zero weight. Curve to
+        target: each curve sample's distance to the polyline through the first
+        `data.count` samples. Differentiated with the nearest points held (the distance
+        is stationary in them), with a zero derivative for a sample exactly on the curve.
+
+        `feet`: the foot points a solver found at `y` (`feet(y, data)`'s), if any. On
+        a closed Hermite curve they are the nearest points and are used as they are,
+        which saves compiling the search once more; open curves pin their ends' feet,
+        so the search is made afresh there.
+        """
+        target, valid = data.target, data.weights > 0
+        _, A, V, _ = self.basis(y, data)
+        P = y["control"]
+        X = A @ P
+        if self.hermite:
+            VX = V @ P
+            if feet is None or not self.closed:
+                tau = locate(target, X, VX, self.closed,
+                             coarse=max(1, min(8, self.num_curve // 64)))
+            else:
+                tau = feet[0]
+            point, _ = evaluate(X, VX, jax.lax.stop_gradient(tau), self.closed)
+            to_curve = safe_norm(point - target)
+        else:
+            to_curve = distances(target, X, self.closed)
+        to_curve = jnp.where(valid, to_curve, 0.0)
+        to_target = distances(X, target, self.closed, count=data.count)
+        share = (valid / jnp.sum(valid)).astype(target.dtype)
+        return X, TwoSidedErrors(
+            rms_target_to_curve=jnp.sqrt(share @ to_curve**2),
+            max_target_to_curve=jnp.max(to_curve),
+            rms_curve_to_target=jnp.sqrt(jnp.mean(to_target**2)),
+            max_curve_to_target=jnp.max(to_target),
+        )
+
     def quadratic_model(self, y, args, feet=None):
         r"""Loss, half gradient and half Hessian of the loss at `y` (flattened in
         `ravel_pytree(y)` order): `loss(y + x) ~ loss + 2 g.x + x.H.x`.
@@ -241,21 +301,15 @@ class Objective(eqx.Module):
         eye = jnp.eye(d, dtype=dtype)
         valid_count = jnp.sum(weights > 0).astype(dtype)
         w = weights * (valid_count / jnp.sum(weights))
-        # Each row of the curve's basis at a foot point: dense (m, n), or banded: the
-        # (m, width) entries on a window of consecutive control points (`window`).
-        if banded is None:
-            rows, slope_rows, bend_rows = evaluate(A, V, tau, self.closed, order=2)
-            held_rows = A[self.held]
-            at = lambda rows: rows @ P
-            held_at = at
-        else:
-            window, rows, slope_rows, bend_rows = band_rows(banded, tau, n, self.closed,
-                                                            self.hermite)
-            held_tau = jnp.asarray(self.held, dtype)
-            held_window, held_rows, _, _ = band_rows(banded, held_tau, n, self.closed,
-                                                     self.hermite)
-            at = lambda rows: jnp.einsum("mw,mwd->md", rows, P[window])
-            held_at = lambda rows: jnp.einsum("kw,kwd->kd", rows, P[held_window])
+        # Each row of the curve's basis at a foot point: the (m, width) entries on a
+        # window of consecutive control points (`window`), from the stencil tables.
+        window, rows, slope_rows, bend_rows = band_rows(banded, tau, n, self.closed,
+                                                        self.hermite)
+        held_tau = jnp.asarray(self.held, dtype)
+        held_window, held_rows, _, _ = band_rows(banded, held_tau, n, self.closed,
+                                                 self.hermite)
+        at = lambda rows: jnp.einsum("mw,mwd->md", rows, P[window])
+        held_at = lambda rows: jnp.einsum("kw,kwd->kd", rows, P[held_window])
         # Target to curve.
         gap = at(rows) - target
         slope, bend = at(slope_rows), at(bend_rows)
@@ -292,35 +346,30 @@ class Objective(eqx.Module):
         # sum_k held_kj held_kl direction_ka direction_kc
         spread = (held_rows[:, :, None] * jnp.where(active[:, None], direction, 0.0)[:, None, :])
         spread = spread.reshape(held_rows.shape[0], -1)
-        if banded is None:
-            gradient = (rows.T @ (w[:, None] * gap)).reshape(-1)
-            gradient += weight * (held_rows.T @ (excess[:, None] * direction)).reshape(-1)
-            hessian = jnp.kron(rows.T @ (w[:, None] * rows), eye) - U.T @ (inverse[:, None] * U)
-            hessian += weight * (spread.T @ spread)
-        else:
-            # Each sample's (and held point's) contribution on its window, summed per
-            # window start, then added into the dense matrix: O(m width^2) instead of
-            # O(m n^2) (measured at n = 64: 0.36 ms against 1.03 ms).
-            width = rows.shape[1]
-            square_rows = (w[:, None, None] * rows[:, :, None] * rows[:, None, :])
-            local = (square_rows[:, :, None, :, None] * eye[None, None, :, None, :])
-            local = local.reshape(m, width * d, width * d)
-            local -= inverse[:, None, None] * U[:, :, None] * U[:, None, :]
-            held_local = weight * spread[:, :, None] * spread[:, None, :]
-            local_gradient = (rows[:, :, None] * (w[:, None] * gap)[:, None, :]).reshape(m, -1)
-            held_gradient = held_rows[:, :, None] * (excess[:, None] * direction)[:, None, :]
-            held_gradient = weight * held_gradient.reshape(-1, width * d)
-            starts = jnp.concatenate([window[:, 0], held_window[:, 0]])
-            total = lambda x: jax.ops.segment_sum(x, starts, num_segments=n)
-            blocks = total(jnp.concatenate([local, held_local]))
-            block_gradients = total(jnp.concatenate([local_gradient, held_gradient]))
-            # Flat indices of window s: control points s..s+width-1 (cyclically), each
-            # with its d coordinates.
-            index = (np.arange(n)[:, None] + np.arange(width)[None, :]) % n
-            index = (index[:, :, None] * d + np.arange(d)).reshape(n, width * d)
-            hessian = jnp.zeros((n * d, n * d), dtype)
-            hessian = hessian.at[index[:, :, None], index[:, None, :]].add(blocks)
-            gradient = jnp.zeros((n * d,), dtype).at[index].add(block_gradients)
+        # Each sample's (and held point's) contribution on its window, summed per
+        # window start, then added into the dense matrix: O(m width^2) instead of
+        # O(m n^2) (measured at n = 64: 0.36 ms against 1.03 ms for the dense sums, and
+        # not slower for n = 8 or 16 either, so it is the only assembly).
+        width = rows.shape[1]
+        square_rows = (w[:, None, None] * rows[:, :, None] * rows[:, None, :])
+        local = (square_rows[:, :, None, :, None] * eye[None, None, :, None, :])
+        local = local.reshape(m, width * d, width * d)
+        local -= inverse[:, None, None] * U[:, :, None] * U[:, None, :]
+        held_local = weight * spread[:, :, None] * spread[:, None, :]
+        local_gradient = (rows[:, :, None] * (w[:, None] * gap)[:, None, :]).reshape(m, -1)
+        held_gradient = held_rows[:, :, None] * (excess[:, None] * direction)[:, None, :]
+        held_gradient = weight * held_gradient.reshape(-1, width * d)
+        starts = jnp.concatenate([window[:, 0], held_window[:, 0]])
+        total = lambda x: jax.ops.segment_sum(x, starts, num_segments=n)
+        blocks = total(jnp.concatenate([local, held_local]))
+        block_gradients = total(jnp.concatenate([local_gradient, held_gradient]))
+        # Flat indices of window s: control points s..s+width-1 (cyclically), each
+        # with its d coordinates.
+        index = (np.arange(n)[:, None] + np.arange(width)[None, :]) % n
+        index = (index[:, :, None] * d + np.arange(d)).reshape(n, width * d)
+        hessian = jnp.zeros((n * d, n * d), dtype)
+        hessian = hessian.at[index[:, :, None], index[:, None, :]].add(blocks)
+        gradient = jnp.zeros((n * d,), dtype).at[index].add(block_gradients)
         D = second_differences(n, self.closed, dtype)
         loss += (smoothing / n) * jnp.sum((D @ P) ** 2)
         gradient += (smoothing / n) * (D.T @ (D @ P)).reshape(-1)

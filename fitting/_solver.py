@@ -26,6 +26,10 @@ when the loss is below `atol`; it reports
 vanish, and `nonlinear_max_steps_reached` after `max_steps` steps. Step 0 only evaluates
 the model at the starting point (so `num_steps` counts it).
 
+Besides optimistix's `num_steps` and `max_steps`, `solution.stats` holds the returned
+point's `hint` and `model` (loss, half gradient, half Hessian), so that the caller can
+reuse them (the fit's errors and Newton step) instead of evaluating them again.
+
 `rtol`, `atol` and `max_steps` are array fields, traced like the data: new values reuse
 the compiled program. (optimistix's own step limit must be a Python integer, a static
 value; run this solver with `optimistix.least_squares(..., max_steps=None)`.)
@@ -37,9 +41,57 @@ from typing import Any
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import lineax as lx
 import optimistix as optx
 from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Bool, Float, Int
+
+from . import _progress
+
+
+#: The solvers `fit(solver=...)` takes by name; the first is `FootPointLevenbergMarquardt`.
+SOLVERS = (
+    "levenberg-marquardt", "optimistix-levenberg-marquardt", "gauss-newton", "dogleg", "bfgs"
+)
+
+
+def make_solver(solver, rtol: float, atol: float, progress: bool = False):
+    """The optimistix solver for `fit(solver=...)`, or None for the default
+    (`FootPointLevenbergMarquardt`, built inside the fit, which knows the problem's
+    structure and the data-dependent `atol`).
+
+    `rtol` and `atol` become array fields: traced, so new values compile nothing. What
+    stays static in optimistix's solvers: their step limit (`optimistix.least_squares`
+    needs a Python int to build its loop), the linear solver, norm and `verbose`
+    callable (functions and solver choices, which select code, not data).
+    """
+    if solver is None or solver == "levenberg-marquardt":
+        return None
+    # Normal equations + Cholesky: 14-200x faster than the default QR on small,
+    # well-conditioned control-point problems, with the same steps (shared notes, d2).
+    normal = lx.Normal(lx.Cholesky())
+    verbose = _progress.progress_verbose if progress else False
+    # Arrays, so that the compiled program takes them as data (new values, no compiling).
+    rtol, atol = jnp.asarray(rtol), jnp.asarray(atol)
+    if solver == "optimistix-levenberg-marquardt":
+        return optx.LevenbergMarquardt(rtol, atol, linear_solver=normal, verbose=verbose)
+    if solver == "gauss-newton":
+        return optx.GaussNewton(rtol, atol, linear_solver=normal, verbose=verbose)
+    if solver == "dogleg":
+        return optx.Dogleg(rtol, atol, linear_solver=normal, verbose=verbose)
+    if solver == "bfgs":
+        return optx.BFGS(rtol, atol, verbose=verbose)
+    if isinstance(solver, (optx.AbstractLeastSquaresSolver, optx.AbstractMinimiser)):
+        if progress:
+            raise ValueError(
+                "`progress=True` works with the named solvers; for your own solver "
+                "instance pass `verbose=fitting.progress_verbose` to it instead."
+            )
+        return solver
+    raise ValueError(
+        f"`solver` must be one of {SOLVERS}, an optimistix least-squares solver or "
+        f"minimiser, or None; got {solver!r}."
+    )
 
 
 class _State(eqx.Module):
@@ -189,4 +241,7 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         return state.terminate, state.result
 
     def postprocess(self, fn, y, aux, args, options, state, tags, result):
-        return y, aux, {}
+        # The last accepted point's hint (the fit's foot points) and model, for the
+        # caller's diagnostics (`solution.stats`): the returned `y` is that point.
+        model = (state.loss, state.gradient, state.hessian)
+        return y, aux, {"hint": state.hint, "model": model}

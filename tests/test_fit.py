@@ -557,10 +557,10 @@ def test_gradient_with_respect_to_scheme_parameters():
                          ids=["hermite", "chords"])
 def test_model_matches_finite_differences_of_its_loss(scheme, hermite, n, boundary):
     """The solver's closed-form gradient and (reduced) Hessian against central finite
-    differences of the loss with the feet found afresh at every point: assembled densely
-    (n = 8) and by windows (n = 24, `_curve.band_basis`), on the Hermite curve (cubic
+    differences of the loss with the feet found afresh at every point: at n = 8 (windows
+    wrapping around most of the polygon) and n = 24, on the Hermite curve (cubic
     B-spline) and on chords (Chaikin)."""
-    from fitting._fit import _band_width, default_levels
+    from fitting._checks import default_levels
     from fitting._objective import FitData, Objective
 
     samples, _ = _small_problem(60 if n == 8 else 120)
@@ -568,13 +568,12 @@ def test_model_matches_finite_differences_of_its_loss(scheme, hermite, n, bounda
     m = samples.shape[0]
     levels = default_levels(n, m, hermite)
     N = _curve.curve_samples(scheme, n, levels, boundary)
-    band = _band_width(scheme, n)
-    assert (band > 0) == (n == 24)
     objective = Objective(n=n, levels=levels, boundary=boundary, names=(), hermite=hermite,
-                          num_curve=N, num_target=m, band=band)
+                          num_curve=N, num_target=m)
     weights = jnp.asarray(np.random.default_rng(3).uniform(0.5, 1.5, m))
     basis = objective.basis_of(scheme, samples.dtype)
-    args = FitData(samples, weights, scheme, jnp.sqrt(0.01), basis, None)
+    args = FitData(target=samples, weights=weights, scheme=scheme,
+                   root_smoothing=jnp.sqrt(0.01), basis=basis)
     fit = fitting.fit(samples, scheme, n, levels=levels, weights=weights, smoothing=0.01,
                       boundary=boundary)
     # Near (not at) the optimum, where the model must hold.
@@ -589,52 +588,6 @@ def test_model_matches_finite_differences_of_its_loss(scheme, hermite, n, bounda
     curvature = (loss(P + h * direction) - 2 * loss(P) + loss(P - h * direction)) / h**2
     np.testing.assert_allclose(2 * float(gradient @ v), slope, rtol=1e-4)
     np.testing.assert_allclose(2 * float(v @ hessian @ v), curvature, rtol=2e-2)
-
-
-@pytest.mark.parametrize("boundary", ["closed", "open", "clamped"])
-@pytest.mark.parametrize(
-    "scheme", [js.CubicBSpline(), js.Chaikin(), js.FourPoint(0.07), js.LaneRiesenfeld(4)],
-    ids=["bspline", "chaikin", "four_point", "lane_riesenfeld_4"],
-)
-def test_banded_model_equals_dense(scheme, boundary):
-    """The banded assembly (`_curve.band_basis`) is a reordering of the dense sums: the
-    same loss, gradient and Hessian to rounding, for every boundary (open curves lose
-    end samples; clamped ends reflect ghost points)."""
-    from fitting._fit import _uses_tangents, default_levels
-    from fitting._init import initial_control
-    from fitting._objective import FitData, Objective
-
-    if boundary == "clamped" and scheme.clamp_ghost is None:
-        pytest.skip("no clamped rule")
-    n = 32
-    samples, _ = _small_problem(120)
-    samples = (samples - samples.mean(0)) / 1.3
-    if boundary != "closed":
-        samples = samples[:90]
-    m = samples.shape[0]
-    hermite = _uses_tangents(scheme, (), boundary)
-    levels = default_levels(n, m, hermite)
-    N = _curve.curve_samples(scheme, n, levels, boundary)
-    weights = jnp.asarray(np.random.default_rng(3).uniform(0.5, 1.5, m))
-    # Near the data (the linear fit at chord-length positions), without compiling a fit.
-    A, _ = _curve.curve_basis(scheme, n, levels, boundary, jnp.float64, hermite)
-    P = initial_control(samples, weights, A, boundary, 0.0)
-    P = P + 0.01 * jnp.asarray(np.random.default_rng(1).standard_normal((n, 2)))
-    models = []
-    for band in (0, scheme.mask_length):
-        objective = Objective(n=n, levels=levels, boundary=boundary, names=(),
-                              hermite=hermite, num_curve=N, num_target=m, band=band)
-        args = FitData(samples, weights, scheme, jnp.asarray(0.0),
-                       objective.basis_of(scheme, jnp.float64), None)
-        model = jax.jit(lambda P: objective.quadratic_model(
-            {"control": P, "params": {}}, args,
-            objective.feet({"control": P, "params": {}}, args)))
-        models.append(model(P))
-    (loss, gradient, hessian), (banded_loss, banded_gradient, banded_hessian) = models
-    scale = float(jnp.max(jnp.abs(hessian)))
-    np.testing.assert_allclose(banded_loss, loss, rtol=1e-12)
-    np.testing.assert_allclose(banded_gradient, gradient, atol=1e-12 * scale)
-    np.testing.assert_allclose(banded_hessian, hessian, atol=1e-12 * scale)
 
 
 def test_gradient_on_exact_data_is_finite():
@@ -830,10 +783,25 @@ def test_new_values_and_lengths_in_one_bucket_compile_nothing():
     assert compiled.count == 0
 
 
+def test_optimistix_solver_tolerance_and_smoothing_are_data():
+    """With one of optimistix's solvers, `tol` (its rtol and atol, array fields of the
+    solver), `smoothing` and new samples of the same bucket compile nothing either (its
+    step limit is static: optimistix builds its loop from a Python int)."""
+    scheme = js.CubicBSpline()
+    options = dict(solver="gauss-newton", levels=5, on_failure="ignore")
+    fitting.fit(_bumpy(100), scheme, 8, tol=1e-6, **options)
+    with CompileCounter() as compiled:
+        fitting.fit(_bumpy(100, 0.3), scheme, 8, tol=1e-8, smoothing=0.01, **options)
+    assert compiled.count == 0
+
+
 def test_max_steps_is_honoured_as_data():
     result = fitting.fit(_bumpy(300), js.CubicBSpline(), 10, max_steps=4, on_failure="ignore")
     assert int(result.num_steps) == 4 and not bool(result.converged)
     assert "max_steps" in result.message
+    # `status` numbers the `fitting.FitStatus` entry, named by `fitting.STATUSES`.
+    assert fitting.STATUSES[int(result.status)] == "nonlinear_max_steps_reached"
+    assert result.message.startswith("nonlinear_max_steps_reached: ")
 
 
 @pytest.mark.parametrize("boundary", ["closed", "open"])
@@ -868,7 +836,7 @@ def test_padding_to_a_bucket_does_not_change_the_fit(monkeypatch, boundary, sche
 
 
 def test_bucket_sizes():
-    from fitting._fit import bucket
+    from fitting._checks import bucket
 
     sizes = [bucket(m) for m in range(1, 3000)]
     assert sorted(set(sizes))[:12] == [16, 20, 24, 28, 32, 40, 48, 56, 64, 80, 96, 112]

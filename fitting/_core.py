@@ -1,0 +1,201 @@
+"""The fit of one outline as one compiled program: `fit_one`, its key, and how it runs.
+
+`fit_one` is pure JAX: `fitting.fit` jits it (`eqx.filter_jit`) or runs its program
+exported to disk (`_exported`), and `fitting.fit_batch` maps it over a batch. What
+selects the compiled program is static and hashable: the `Objective` (shapes and
+settings, built on the host by `make_objective`), the solver's kind and the shapes and
+dtypes of the data; everything else is a traced array: the samples and weights
+(`FitData`), the smoothing, `tol`, and `max_steps` with the default solver.
+"""
+
+import contextlib
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array, Float
+
+from jaxsubdiv.validation import is_traced
+
+from . import _exported, _progress
+from ._curve import curve_samples
+from ._init import initial_control
+from ._objective import FitData, Objective
+from ._params import from_unconstrained, to_unconstrained
+from ._result import FitResult, status_code
+from ._solver import FootPointLevenbergMarquardt
+
+
+def make_objective(scheme, *, n: int, levels: int, boundary: str, names: tuple[str, ...],
+                   hermite: bool, size: int) -> Objective:
+    """The fit's `Objective` for `n` control points and `size` samples (the bucket),
+    built on the host: every field is a Python value, so equal settings compare (and
+    hash) equal and select the same compiled program."""
+    return Objective(n=n, levels=levels, boundary=boundary, names=tuple(names),
+                     hermite=hermite, num_curve=curve_samples(scheme, n, levels, boundary),
+                     num_target=size)
+
+
+def traced_settings(smoothing, tol, max_steps, dtype, own_solver: bool):
+    """`(root of smoothing, tol, max_steps)` as `fit_one` takes them: numpy arrays for
+    concrete values (no compiling of scalar operations), traced as data by the jitted
+    program. With optimistix's own solvers `max_steps` stays a Python int: their step
+    limit is static (`optimistix.least_squares` builds its loop from it)."""
+    xp = jnp if is_traced(smoothing) or is_traced(tol) else np
+    steps = np.int32(max_steps) if own_solver else max_steps
+    return xp.sqrt(xp.asarray(smoothing, dtype)), xp.asarray(tol, dtype), steps
+
+
+def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
+            progress: bool = False) -> FitResult:
+    """Fit one target (pure JAX; `fit` and `fit_batch` jit and map this).
+
+    `data.target` and `data.weights` are padded to the program's bucket
+    (`objective.num_target` samples), `data.count` is the number of samples before
+    padding; `init` is None or starting control points in the target's units. `tol`
+    and `max_steps` are arrays, traced with the default solver (`solver=None`); with
+    an optimistix solver (`_solver.make_solver`, its tolerances fixed at construction),
+    `max_steps` is its static step limit. `progress`: a line per solver step.
+    """
+    target, weights, scheme = data.target, data.weights, data.scheme
+    dtype = target.dtype
+    # Samples with zero weight (including the padding) are ignored.
+    valid = weights > 0
+    valid_count = jnp.sum(valid)
+    share = (valid / valid_count).astype(dtype)
+    center = share @ target  # a convex combination: cannot overflow
+    # The RMS distance to the center, computed as `reach * RMS(offsets / reach)` so that
+    # squaring neither overflows nor underflows at any finite scale (coordinates near
+    # 1e160, or 1e-160, in float64; 1e20 in float32). `reach` is a constant factor of
+    # an expression homogeneous in it: the value and its derivatives are exact.
+    offsets = jnp.where(valid[:, None], target - center, 0.0)
+    reach = jax.lax.stop_gradient(jnp.max(jnp.abs(offsets)))
+    reach = jnp.where(reach > 0, reach, 1.0)
+    scale = reach * jnp.sqrt(share @ jnp.sum((offsets / reach) ** 2, -1))
+    scale = jnp.where(scale > 0, scale, 1.0)
+    # The curve's basis at the starting parameters: for the initial linear fit, for the
+    # whole solve when no parameter is fitted, and for the final curve then.
+    basis = objective.basis_of(scheme, dtype)
+    if basis[0].shape[0] != objective.num_curve:  # static shapes: a defect, never data
+        raise AssertionError(f"the objective expects {objective.num_curve} curve samples, "
+                             f"the basis has {basis[0].shape[0]} rows")
+    # The problem in units of the outline's size.
+    scaled = FitData(target=(target - center) / scale, weights=weights, scheme=scheme,
+                     root_smoothing=data.root_smoothing,
+                     basis=None if objective.names else basis, count=data.count)
+    if init is None:
+        P0 = initial_control(scaled.target, weights, basis[0], objective.boundary,
+                             data.root_smoothing**2)
+    else:
+        P0 = (init - center) / scale
+    y0 = {"control": jax.lax.stop_gradient(P0),
+          "params": to_unconstrained(scheme, objective.names)}
+    own_solver = solver is None
+    if own_solver:
+        # Stop when two accepted steps in a row lower the loss (a sum of squared
+        # distances over the valid samples) by less than `tol` of it, or the loss is
+        # below that count times tol^2 (RMS `tol`).
+        solver = FootPointLevenbergMarquardt(
+            rtol=tol, atol=valid_count * tol**2, max_steps=max_steps,
+            model=objective.quadratic_model, hint=objective.feet,
+            verbose=_progress.progress_verbose if progress else None,
+        )
+    sol = optx.least_squares(
+        objective.residuals, solver, y0, args=scaled,
+        max_steps=None if own_solver else max_steps, throw=False,
+    )
+    # The default solver reports its foot points and model at the returned point.
+    newton = newton_step(objective, sol.value, scaled, sol.stats.get("model"))
+    curve, errors = objective.errors(sol.value, scaled, feet=sol.stats.get("hint"))
+    # Errors are measured in units of the outline's size, then scaled: squares of
+    # distances in the caller's units could overflow or underflow (size 1e160 or 1e-160).
+    rms_t2c, max_t2c = scale * errors.rms_target_to_curve, scale * errors.max_target_to_curve
+    rms_c2t, max_c2t = scale * errors.rms_curve_to_target, scale * errors.max_curve_to_target
+    return FitResult(
+        control_points=center + scale * sol.value["control"],
+        scheme=from_unconstrained(scheme, objective.names, sol.value["params"]),
+        curve=center + scale * curve,
+        rms=jnp.maximum(rms_t2c, rms_c2t),
+        max_error=jnp.maximum(max_t2c, max_c2t),
+        rms_target_to_curve=rms_t2c,
+        max_target_to_curve=max_t2c,
+        rms_curve_to_target=rms_c2t,
+        max_curve_to_target=max_c2t,
+        num_steps=sol.stats["num_steps"],
+        status=status_code(sol.result),
+        newton_step=scale * newton,
+        boundary=objective.boundary,
+        levels=objective.levels,
+    )
+
+
+fit_jit = eqx.filter_jit(fit_one)
+
+
+def newton_step(objective: Objective, y, data: FitData, model=None) -> Float[Array, ""]:
+    """Largest control-point coordinate of the Newton step at `y`, in units of the
+    outline's size; inf where the Hessian does not factor (not positive definite).
+
+    `model`: the loss, half gradient and half Hessian at `y` if the solver has them
+    (the default solver's `stats["model"]`), else the objective's model is evaluated
+    there once. A diagnostic, not differentiated.
+    """
+    y = jax.lax.stop_gradient(y)
+    if model is None:
+        model = objective.quadratic_model(y, jax.lax.stop_gradient(data))
+    _, gradient, hessian = jax.lax.stop_gradient(model)
+    factor = jax.scipy.linalg.cho_factor(hessian)
+    step = jax.scipy.linalg.cho_solve(factor, gradient)
+    # ravel_pytree puts the control points first.
+    largest = jnp.max(jnp.abs(step[: y["control"].size]))
+    return jnp.where(jnp.all(jnp.isfinite(factor[0])), largest, jnp.inf)
+
+
+def result_structure(scheme, boundary: str, levels: int):
+    """The pytree structure of `fit_one`'s `FitResult` (the fitted scheme has the
+    structure of the given one)."""
+    blank = dict.fromkeys(
+        ("control_points", "curve", "rms", "max_error", "rms_target_to_curve",
+         "max_target_to_curve", "rms_curve_to_target", "max_curve_to_target", "num_steps",
+         "status", "newton_step"), 0.0)
+    return jax.tree.structure(FitResult(scheme=scheme, boundary=boundary, levels=levels,
+                                        **blank))
+
+
+def program_key(objective: Objective, data: FitData, init, solver, progress: bool) -> tuple:
+    """What selects `fit_jit`'s compiled program besides the data's values (for the
+    progress display's "compiling" line)."""
+    return (objective, data.target.shape[1], str(data.target.dtype), init is None,
+            jax.tree.structure(data.scheme), type(solver).__name__, progress)
+
+
+def run(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
+        progress=False):
+    """`fit_one`, compiled: `progress` True for a line per solver step, `"time"` for
+    the elapsed time (the program is then the one without progress).
+
+    With the persistent compilation cache on, a concrete call with the default solver
+    runs a program exported to disk: a new process then skips tracing and lowering.
+    """
+    steps = progress is True  # a line per solver step, from inside the program
+    if progress:
+        _progress.compiling(program_key(objective, data, init, solver, steps),
+                            objective.num_target)
+    args = (data, init, tol, max_steps)
+    static = dict(objective=objective, solver=solver, progress=steps)
+    exported = (solver is None and not steps and _exported.folder() is not None
+                and not any(is_traced(x) for x in jax.tree.leaves(args)))
+    clock = _progress.elapsed() if progress == "time" else contextlib.nullcontext()
+    with clock:
+        if exported:
+            structure = result_structure(data.scheme, objective.boundary, objective.levels)
+            result = _exported.call(fit_one, args, static, structure)
+        else:
+            result = fit_jit(*args, **static)
+        if progress:
+            jax.block_until_ready(result)
+    if steps:
+        _progress.finish()
+    return result
