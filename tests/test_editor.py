@@ -1,6 +1,11 @@
-"""The interactive editor, driven headless by synthetic matplotlib events (Agg)."""
+"""The interactive editor: its headless state driven by its methods, and the matplotlib
+view driven by synthetic matplotlib events (Agg)."""
 
 import argparse
+import json
+import os
+import subprocess
+import sys
 
 import equinox as eqx
 import jax
@@ -16,7 +21,7 @@ import jaxsubdiv as js
 from jaxsubdiv import editor as editor_module
 from jaxsubdiv._editor_cli import add_parser, run
 from jaxsubdiv._refine import _refine_jit
-from jaxsubdiv.editor import Editor
+from jaxsubdiv.editor import Editor, EditorState
 
 
 ALL = ("cubic-bspline", "four-point", "jarek", "chaikin", "corner-cutting")
@@ -272,7 +277,7 @@ def test_sliders_set_the_parameters_and_the_curves_follow():
     box = slider.ax.bbox
     y = (box.y0 + box.y1) / 2
     at = lambda value: box.x0 + value * (box.x1 - box.x0)
-    ed._smooth_seconds = 1.0  # as if the last smoothness call had been slow
+    ed.state.smoothness_seconds = 1.0  # as if the last smoothness call had been slow
     mouse(ed, "button_press_event", (at(0.2), y))
     mouse(ed, "motion_notify_event", (at(0.8), y))
     # While the slider moves after a slow call, the label waits for the release.
@@ -413,3 +418,311 @@ def test_command_line(tmp_path, capsys):
         run(parser.parse_args(["edit", "x.csv", "--shape", "star", "--png", str(png)]))
     with pytest.raises(SystemExit):
         parser.parse_args(["edit", "--curves", "spline"])
+
+
+# The headless state -------------------------------------------------------------------
+
+
+def periodic_subdivide(P, even, odd, levels):
+    """One binary subdivision rule applied `levels` times to a closed polygon, written
+    as plain stencils: Q[2i] = sum_k even[k] P[i + k], Q[2i + 1] = sum_k odd[k] P[i + k]
+    (`even`, `odd`: dicts offset -> weight)."""
+    for _ in range(levels):
+        Q = np.empty((2 * len(P), 2))
+        Q[0::2] = sum(w * np.roll(P, -k, 0) for k, w in even.items())
+        Q[1::2] = sum(w * np.roll(P, -k, 0) for k, w in odd.items())
+        P = Q
+    return P
+
+
+def holder(label):
+    """The Hölder exponent in a smoothness label (`C¹, α ≈ 2.000` -> 2.0)."""
+    return float(label.split("α")[1].split()[1])
+
+
+def test_state_curves_follow_edits_against_plain_subdivision_rules():
+    P = wavy(11, seed=3)
+    state = EditorState(P, curves=ALL, levels=4)
+    # Cubic B-spline (Lane-Riesenfeld): Q2i = (P[i-1] + 6 P[i] + P[i+1]) / 8, Q2i+1 = (P[i] + P[i+1]) / 2.
+    bspline = lambda Q: periodic_subdivide(Q, {-1: 1 / 8, 0: 6 / 8, 1: 1 / 8}, {0: 0.5, 1: 0.5}, 4)
+    references = {
+        "cubic-bspline": bspline,
+        "four-point": lambda Q: four_point_numpy(Q, 1 / 16, 4),
+        "jarek": lambda Q: split_tweak_numpy(Q, 0.5, 4),
+        "chaikin": lambda Q: np.asarray(chaikin_python(Q, 4, closed=True)),
+        "corner-cutting": lambda Q: corner_cutting_numpy(Q, 0.25, 0.75, 4),
+    }
+
+    def check():
+        for name, reference in references.items():
+            np.testing.assert_allclose(
+                state.curve_points[name], reference(state.points), rtol=0, atol=1e-12, err_msg=name
+            )
+
+    check()
+    state.move_vertex(4, (0.3, -0.2))
+    np.testing.assert_array_equal(state.points[4], [0.3, -0.2])
+    check()
+    assert state.insert_vertex(10, (1.2, -0.1)) == 11  # on the closing edge (10, 0)
+    np.testing.assert_array_equal(state.points[11], [1.2, -0.1])
+    check()
+    assert state.delete_vertex(0)
+    assert len(state.points) == 11
+    check()
+    state.set_parameter("w", 0.1)
+    state.set_parameter("t", 0.3)
+    references["four-point"] = lambda Q: four_point_numpy(Q, 0.1, 4)
+    references["jarek"] = lambda Q: split_tweak_numpy(Q, 0.3, 4)
+    check()
+    state.set_points(P)
+    check()
+    # Hidden curves hold no points; shown again, they are computed for the current polygon.
+    assert not state.toggle("chaikin") and "chaikin" not in state.curve_points
+    state.move_vertex(0, (1.4, 0.1))
+    assert state.toggle("chaikin")
+    check()
+    # Open: clamped ends, so every curve starts at the first vertex and ends at the last.
+    assert state.set_closed(False) and state.boundary == "clamped"
+    for name in ALL:
+        np.testing.assert_allclose(state.curve_points[name][[0, -1]], state.points[[0, -1]], atol=1e-12)
+    state.set_level(2)
+    assert len(state.curve_points["four-point"]) == js.refined_count(11, js.FourPoint(0.1), 2, "clamped")
+    state.reset()
+    np.testing.assert_array_equal(state.points, P)
+    assert state.closed and state.status == "reset"
+
+
+def test_state_smoothness_labels_against_published_exponents():
+    state = EditorState(SQUARE, curves=ALL)
+    # Cubic B-spline: C², Hölder exponent 3 exactly; Chaikin and corner cutting at
+    # (1/4, 3/4) (the same scheme): quadratic B-spline, C¹, exponent 2.
+    assert state.smoothness["cubic-bspline"] == "C², α = 3.000"
+    for name in ("chaikin", "corner-cutting"):
+        assert state.smoothness[name] == "C¹, α = 2.000", name
+    # Four-point at w = 1/16: C¹ and not C², Hölder exponent 2 - ε (Dyn, Levin, Gregory
+    # 1987; Daubechies and Lagarias 1992).
+    label = state.smoothness["four-point"]
+    assert label.startswith("C¹,") and abs(holder(label) - 2.0) < 1e-3
+    # t = 0 is the cubic B-spline (Luffel and Rossignac): C², exponent 3.
+    state.set_parameter("t", 0.0)
+    assert state.smoothness["jarek"].startswith("C²,") and abs(holder(state.smoothness["jarek"]) - 3) < 1e-3
+    # Deferred: the label waits for update_smoothness().
+    state.set_parameter("w", 0.0, defer_smoothness=True)
+    assert state.stale_smoothness == {"four-point"} and state.smoothness["four-point"] == label
+    state.update_smoothness()
+    # w = 0: piecewise-linear interpolation, C⁰ with Hölder exponent 1.
+    assert state.stale_smoothness == set()
+    assert state.smoothness["four-point"].startswith("C⁰,") and holder(state.smoothness["four-point"]) == 1.0
+
+
+def test_parameters_out_of_range_are_clear_errors():
+    # Ranges from the schemes' papers: four-point converges for -1/4 < w < 1/4 (Dyn,
+    # Levin, Gregory 1987), corner cutting needs 0 < r < s < 1, split-tweak 0 <= t <= 1.
+    state = EditorState(SQUARE, curves=ALL, levels=2)
+    for name, bad in (("w", 0.3), ("w", 0.25), ("w", -0.25), ("r", 0.0), ("s", 1.0), ("t", 1.01), ("t", -0.5)):
+        with pytest.raises(ValueError, match=rf"`{name}`.*{name} <") as error:
+            state.set_parameter(name, bad)
+        assert "1" in str(error.value)  # the range's bounds are named
+    assert state.parameters == {"w": 1 / 16, "r": 0.25, "s": 0.75, "t": 0.5}
+    with pytest.raises(ValueError, match=r"`w`.*-1/4 < w < 1/4"):
+        state.set_parameter("w", 0.3)
+    for name, good in (("w", 0.2499), ("w", -0.2499), ("t", 1.0), ("t", 0.0), ("r", 0.01)):
+        state.set_parameter(name, good)
+        assert state.parameters[name] == good
+    with pytest.raises(ValueError, match="name"):
+        state.set_parameter("q", 0.1)
+    with pytest.raises(TypeError, match="w"):
+        state.set_parameter("w", "big")
+    with pytest.raises(ValueError, match=r"`w`.*1/4"):
+        EditorState(SQUARE, w=0.3)
+    with pytest.raises(TypeError, match="q"):
+        EditorState(SQUARE, q=0.3)
+    # The view: the same error, and neither the slider nor the curve moved.
+    ed = make(SQUARE, levels=2)
+    before = ed.curve_points["four-point"].copy()
+    with pytest.raises(ValueError, match=r"`w`.*-1/4 < w < 1/4"):
+        ed.set_parameter("w", 0.3)
+    assert ed.sliders["w"].val == 1 / 16 and ed.parameters["w"] == 1 / 16
+    np.testing.assert_array_equal(ed.curve_points["four-point"], before)
+    with pytest.raises(ValueError, match=r"`w`.*1/4"):
+        make(SQUARE, w=0.3)
+    # The sliders stay inside the valid ranges (open ends nudged inside).
+    for name, (low, high, default) in editor_module.PARAMETERS.items():
+        assert low < default < high or (name == "t" and low <= default <= high)
+        EditorState(SQUARE, **{name: low}), EditorState(SQUARE, **{name: high})
+    assert editor_module.PARAMETERS["t"][:2] == (0.0, 1.0)
+    assert -0.25 < editor_module.PARAMETERS["w"][0] < -0.24 and 0.24 < editor_module.PARAMETERS["w"][1] < 0.25
+
+
+def test_state_save_writes_files_that_read_back(tmp_path):
+    P = wavy(7)
+    state = EditorState(P, levels=3, curves=("four-point", "chaikin"), w=0.1, save_prefix=tmp_path / "s")
+    written = state.save()
+    assert sorted(os.path.basename(p) for p in written) == [
+        "s-chaikin.svg", "s-four-point.svg", "s-polygon.svg", "s.json"
+    ]
+    saved = js.io.read_result_json(tmp_path / "s.json")
+    np.testing.assert_array_equal(saved.control_points, P)
+    assert isinstance(saved.scheme, js.FourPoint) and float(saved.scheme.w) == 0.1
+    assert saved.info["editor"]["parameters"]["w"] == 0.1
+    assert json.loads((tmp_path / "s.json").read_text())["info"]["editor"]["closed"] is True
+    assert "saved 4 files" in state.status
+    pictures = []
+    state.save(tmp_path / "t", picture=pictures.append)
+    assert pictures == [os.fspath(tmp_path / "t.png")]
+
+
+def test_state_runs_without_matplotlib(tmp_path):
+    script = f"""
+import sys
+import numpy as np
+from jaxsubdiv.editor import EditorState
+state = EditorState(np.array([[0., 0.], [1., 0.], [1., 1.], [0., 1.]]), levels=3,
+                    curves=("four-point", "corner-cutting"))
+state.move_vertex(0, (0.1, 0.1))
+state.insert_vertex(0, (0.5, -0.1))
+assert state.delete_vertex(4)
+state.set_closed(False); state.set_level(2); state.toggle("chaikin")
+state.set_parameter("w", 0.1); state.set_parameter("r", 0.3)
+state.save({os.fspath(tmp_path / "x")!r})
+assert len(state.curve_points["chaikin"]) > 0 and state.smoothness["four-point"]
+print(sorted(m for m in sys.modules if m.split(".")[0] == "matplotlib"))
+"""
+    out = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=300,
+        cwd=tmp_path, env={**os.environ, "MPLBACKEND": "Agg"},
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
+    assert (tmp_path / "x.json").exists()
+
+
+# The view's key table ------------------------------------------------------------------
+
+
+def test_key_table_drives_the_same_actions_as_the_state_methods(tmp_path):
+    P = wavy(10, seed=1)
+    ed = make(P, levels=2, save_prefix=tmp_path / "view")
+    state = EditorState(P, levels=2, save_prefix=tmp_path / "state")
+    ed.move_vertex(3, P[3] + 0.2)
+    state.move_vertex(3, P[3] + 0.2)
+    at_vertex_5 = pixel(ed, ed.points[5])
+
+    def same():
+        np.testing.assert_array_equal(ed.points, state.points)
+        assert (ed.closed, ed.levels, ed.shown, ed.parameters, ed.status) == (
+            state.closed, state.levels, state.shown, state.parameters, state.status
+        )
+        assert ed.curve_points.keys() == state.curve_points.keys()
+        for name in state.curve_points:
+            np.testing.assert_array_equal(ed.curve_points[name], state.curve_points[name])
+
+    # What each key must do, written from the documented key map (docs/editor.md).
+    state_actions = {
+        **{k: (lambda n=n: state.toggle(n)) for k, n in zip("bfjkx", ALL)},
+        **{str(i): (lambda i=i: state.set_level(i)) for i in range(1, 10)},
+        "d": lambda: state.delete_vertex(5),
+        "delete": lambda: state.delete_vertex(5),
+        "backspace": lambda: state.delete_vertex(5),
+        "o": lambda: state.set_closed(not state.closed),
+        " ": state.reset,
+        "s": lambda: state.save(),
+        "r": state.refit,
+    }
+
+    def view_only(name):
+        """Prepare for a key that changes only the view; returns the check after it."""
+        if name in ("c", "h"):
+            artist = ed.polygon_line if name == "c" else ed._help_text
+            visible = artist.get_visible()
+            return lambda: artist.get_visible() is (not visible)
+        if name == "a":
+            ed.ax.set_xlim(-5.0, 5.0)
+            low, high = state.bounds()
+            return lambda: ed.ax.get_xlim()[0] < low[0] and high[0] < ed.ax.get_xlim()[1] < 5.0
+        assert name == "t"
+        return lambda: ed.target_line is None and ed.toggle("target") is False
+
+    assert set(ed.keys) == set(state_actions) | {"c", "h", "a", "t"}
+    for name in ed.keys:
+        check = None if name in state_actions else view_only(name)
+        key(ed, name, at_vertex_5 if name in ("d", "delete", "backspace") else None)
+        if check is not None:
+            assert check(), name
+        else:
+            state_actions[name]()
+        if name == "s":  # each names its own prefix, and the view adds its picture
+            assert ed.status.startswith("saved 5 files") and state.status.startswith("saved 4 files")
+            state.status = ed.status
+        same()
+        if name in ("d", "delete", "backspace"):
+            at_vertex_5 = pixel(ed, ed.points[5])
+    saved = js.io.read_result_json(tmp_path / "view.json")
+    np.testing.assert_array_equal(saved.control_points, js.io.read_result_json(tmp_path / "state.json").control_points)
+    assert "no target to refit" in ed.status
+
+
+@pytest.mark.parametrize("fit", [False, True])
+def test_help_lines_fit_the_default_figure_and_come_from_the_key_table(fit):
+    figure = Figure(figsize=(11, 7.5), dpi=100)  # the size of Editor(figure=None)
+    FigureCanvasAgg(figure)
+    target = superellipse(50) if fit else None
+    ed = Editor(wavy(10), figure=figure, target=target)
+    figure.canvas.draw()
+    help_text = ed._help_text
+    assert not help_text.get_wrap()
+    lines = help_text.get_text().split("\n")
+    assert len(lines) == 2
+    extent = help_text.get_window_extent(figure.canvas.get_renderer())
+    assert 0 <= extent.x0 and extent.x1 <= figure.bbox.width, (extent, figure.bbox)
+    assert extent.y1 <= figure.bbox.height
+    # Not over the drawing axes either.
+    assert extent.y0 >= ed.ax.get_position().y1 * figure.bbox.height
+    # Every key of the table is described, with its description.
+    text = help_text.get_text()
+    for name, (description, _) in ed.keys.items():
+        if name in editor_module.FIT_KEYS and not fit:
+            assert f"{name} {description}" not in text
+            continue
+        if name.isdigit():
+            continue  # "1-9 level", below
+        shown = {" ": "space"}.get(name, name)
+        assert description in text and shown in text, name
+    assert "1-9 level" in text and "d/delete/backspace delete vertex" in text
+
+
+def test_the_docs_key_table_lists_exactly_the_editor_keys():
+    """docs/editor.md's table of keys names every key of the editor's table, and no other."""
+    path = os.path.join(os.path.dirname(__file__), "..", "docs", "editor.md")
+    with open(path, encoding="utf-8") as file:
+        text = file.read()
+    section = text.split("## Keys")[1].split("\n## ")[0]
+    documented = set()
+    for row in section.splitlines():
+        if not row.startswith("| ") or row.startswith("| key"):
+            continue
+        cell = row.split("|")[1].replace("`1`-`9`", "1-9")
+        for name in cell.replace("`", " ").replace(",", " ").split():
+            if name == "1-9":
+                documented.update(str(i) for i in range(1, 10))
+            else:
+                documented.add({"space": " "}.get(name, name))
+    assert documented == set(editor_module.KEYS)
+
+
+def test_schemes_map_to_the_editor_curves_that_draw_them():
+    from jaxsubdiv._editor_state import scheme_curve
+
+    assert scheme_curve(js.CubicBSpline()) == ("cubic-bspline", {})
+    assert scheme_curve(js.FourPoint(0.1)) == ("four-point", {"w": 0.1})
+    assert scheme_curve(js.SplitTweak(0.3)) == ("jarek", {"t": 0.3})
+    # Jarek's scheme is split-and-tweak at t = 1/2 (Luffel and Rossignac).
+    assert scheme_curve(js.Jarek()) == ("jarek", {"t": 0.5})
+    assert scheme_curve(js.Chaikin()) == ("chaikin", {})
+    assert scheme_curve(js.CornerCutting(0.1, 0.6)) == ("corner-cutting", {"r": 0.1, "s": 0.6})
+    for scheme in (js.Daubechies(), js.LaneRiesenfeld(4), js.MaskScheme([0.5, 1, 0.5], -1)):
+        with pytest.raises(ValueError, match="the editor draws"):
+            scheme_curve(scheme)
+    assert [c.label for c in editor_module.CURVES.values()] == [
+        "cubic B-spline", "four-point", "Jarek (split-tweak t)", "Chaikin", "corner cutting (r, s)"
+    ]
