@@ -150,8 +150,8 @@ def _median_run(command: list[str], src: Path, repeat: int) -> tuple[float, str]
 
 
 def start_up(src: Path, repeat: int) -> dict:
-    probe = ("import sys, jaxsubdiv; print('LOADED', sorted(m for m in {heavy} "
-             "if m in sys.modules))").format(heavy=HEAVY)
+    probe = (f"import sys, jaxsubdiv; print('LOADED', sorted(m for m in {HEAVY} "
+             "if m in sys.modules))")
     import_seconds, output = _median_run([sys.executable, "-c", probe], src, repeat)
     loaded = re.search(r"LOADED (\[.*\])", output)
     _, timing = _median_run([sys.executable, "-X", "importtime", "-c", "import jaxsubdiv"],
