@@ -125,7 +125,7 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
                ordered: bool = True) -> int:
     """An estimate, in bytes, of the arrays one fit of `m` samples (its shape bucket)
     holds: about 10 copies of the dense curve basis (N curve samples x n control
-    points, with its tangents and the refinement that builds it), 3 blocks of the
+    points, with its tangents and their products), 3 blocks of the
     foot-point searches' points-by-anchors distances (at most `_curve.BLOCK_PAIRS`
     entries each: they run in blocks of samples), and about 400 numbers per sample;
     with `ordered=False` also the m x m arrays of `order_samples` (measured: 0.63 GB
@@ -135,7 +135,9 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
     Measured (`benchmarks/bench_fit_memory.py`, cubic B-spline, n = 32, default
     levels): the peak less the 0.69 GB of a fit of 400 samples was 54, 43 and 115 MB
     at 4,000, 16,000 and 32,000 samples, 0.2-0.4x this estimate (before the blocked
-    searches: 1.1 and 4.6 GB at 16,000 and 32,000).
+    searches: 1.1 and 4.6 GB at 16,000 and 32,000). Those measurements predate the
+    curve stencil tables, which no longer refine the identity into the basis, so the
+    estimate is now more conservative still.
     """
     N = curve_samples(scheme, n, levels, boundary)
     anchors = N // max(1, min(8, N // 64))

@@ -38,13 +38,14 @@ def make_objective(scheme, *, n: int, levels: int, boundary: str, names: tuple[s
                      num_target=size)
 
 
-def traced_settings(smoothing, tol, max_steps, dtype, own_solver: bool):
+def traced_settings(smoothing, tol, max_steps, dtype, default_solver: bool):
     """`(root of smoothing, tol, max_steps)` as `fit_one` takes them: numpy arrays for
     concrete values (no compiling of scalar operations), traced as data by the jitted
-    program. With optimistix's own solvers `max_steps` stays a Python int: their step
+    program. With the default solver (`default_solver`) `max_steps` is data too; with
+    optimistix's own solvers it stays a Python int: their step
     limit is static (`optimistix.least_squares` builds its loop from it)."""
     xp = jnp if is_traced(smoothing) or is_traced(tol) else np
-    steps = np.int32(max_steps) if own_solver else max_steps
+    steps = np.int32(max_steps) if default_solver else max_steps
     return xp.sqrt(xp.asarray(smoothing, dtype)), xp.asarray(tol, dtype), steps
 
 

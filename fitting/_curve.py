@@ -373,15 +373,6 @@ def curve_tables(
     return position, eqx.tree_at(lambda t: t.weights, tangent, tangent.weights / 2**levels)
 
 
-def curve_basis(
-    scheme, n: int, levels: int, boundary: str, dtype, tangents: bool
-) -> tuple[Float[Array, "N n"], Float[Array, "N n"] | None]:
-    """`curve_tables` as dense `(N, n)` matrices (for the linear initial fit and the
-    curve's samples `A @ P`)."""
-    position, tangent = curve_tables(scheme, n, levels, boundary, dtype, tangents)
-    return position.dense(), None if tangent is None else tangent.dense()
-
-
 class Band(eqx.Module):
     """A curve basis stored by segments, for the banded assembly (`band_basis`).
 
@@ -447,7 +438,7 @@ def band_rows(
 
 
 def curve_samples(scheme, n: int, levels: int, boundary: str) -> int:
-    """Number of exact curve samples (rows of `curve_basis`): the refined count, less the
+    """Number of exact curve samples (rows of `curve_tables`): the refined count, less the
     `a` points at each end of an open curve that its limit stencils cannot reach (see
     [`jaxsubdiv.limit_points`][])."""
     count = js.refined_count(n, scheme, levels, boundary)

@@ -84,7 +84,11 @@ def fit(
     for 448), dimension, dtype, `n_control`, `levels`, `boundary`, the scheme's type,
     `fit_params`, `solver` and whether `init` is given. Values are data: new samples,
     `weights`, `smoothing`, `tol`, `max_steps` (with the default solver) and scheme
-    parameter values compile nothing. `jaxsubdiv.enable_compilation_cache()` keeps
+    parameter values compile nothing, except across the scheme's C1 boundary: the curve
+    model (Hermite where the scheme is C1 at its values, chords elsewhere, decided on the
+    host by `jaxsubdiv.smoothness`) and the default `levels` that follow from it are
+    static, so `FourPoint(0.18)` and `FourPoint(0.2)` run two programs.
+    `jaxsubdiv.enable_compilation_cache()` keeps
     compiled programs on disk for later processes.
 
     **Arguments:**

@@ -100,7 +100,7 @@ def initial_control(
     """Linear least-squares control points for chord-length parameters.
 
     `table` is the curve's basis: row `K` maps the control points to the limit curve at
-    its dyadic sample `K` (`_curve.curve_basis`).
+    its dyadic sample `K` (`_curve.curve_tables`, as a dense matrix).
 
     Solves $(B^T W B + \\mu D^T D) P = B^T W T$ with lineax's Cholesky, where B maps
     control points to the curve at the samples' chord-length positions and D takes

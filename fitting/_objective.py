@@ -348,8 +348,9 @@ class Objective(eqx.Module):
         spread = spread.reshape(held_rows.shape[0], -1)
         # Each sample's (and held point's) contribution on its window, summed per
         # window start, then added into the dense matrix: O(m width^2) instead of
-        # O(m n^2) (measured at n = 64: 0.36 ms against 1.03 ms for the dense sums, and
-        # not slower for n = 8 or 16 either, so it is the only assembly).
+        # O(m n^2) (measured at n = 64: 0.36 ms against 1.03 ms for the dense sums). At
+        # n = 8 and 16 a warm 40-step fit measured within the machine's noise of the old
+        # dense path (3-14 ms either way, load ~9), so it is the only assembly.
         width = rows.shape[1]
         square_rows = (w[:, None, None] * rows[:, :, None] * rows[:, None, :])
         local = (square_rows[:, :, None, :, None] * eye[None, None, :, None, :])

@@ -49,6 +49,16 @@ def fitted_names(scheme, fit_params) -> tuple[str, ...]:
                 "fit_params=True is not supported for MaskScheme: a free mask would have "
                 "to keep its sub-masks summing to one. Fit a built-in scheme's parameters."
             )
+        if not available:
+            # Silently fitting nothing would look like a successful parameter fit.
+            hint = (" `Jarek()` is `SplitTweak(1/2)` with t fixed; fit t with "
+                    "`SplitTweak(0.5)`." if isinstance(scheme, js.Jarek) else "")
+            raise ValueError(
+                f"fit_params=True: {type(scheme).__name__} has no parameters to fit; the "
+                f"schemes with fittable parameters are "
+                f"{', '.join(info.cls.__name__ for info in js.schemes().values() if info.fittable)}."
+                + hint
+            )
         return available
     names = (fit_params,) if isinstance(fit_params, str) else tuple(fit_params)
     unknown = [n for n in names if n not in available]

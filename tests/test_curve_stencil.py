@@ -269,9 +269,19 @@ def test_clear_errors():
 # The fit's Hessian assembly, on the stencil tables, against the dense sums.
 
 
-@pytest.mark.parametrize("n", [8, 24])
-@pytest.mark.parametrize("boundary", ["closed", "open", "clamped"])
-def test_fit_model_equals_dense_assembly(n, boundary):
+# The cubic B-spline with windows wrapping around most of the polygon (n = 8) and not
+# (n = 24), and masks wider than the polygon is long (the `% n` of closed windows).
+_ASSEMBLY_CASES = [
+    *[pytest.param(js.CubicBSpline(), n, boundary, id=f"bspline-{boundary}-{n}")
+      for n in (8, 24) for boundary in ("closed", "open", "clamped")],
+    pytest.param(js.LaneRiesenfeld(5), 5, "closed", id="lane_riesenfeld_5-closed-5"),
+    pytest.param(js.LaneRiesenfeld(5), 7, "open", id="lane_riesenfeld_5-open-7"),
+    pytest.param(js.FourPoint(1 / 16), 6, "open", id="four_point-open-6"),
+]
+
+
+@pytest.mark.parametrize("scheme, n, boundary", _ASSEMBLY_CASES)
+def test_fit_model_equals_dense_assembly(scheme, n, boundary):
     """`Objective.quadratic_model` (assembled by windows of the stencil tables) against
     the dense sums written here, with the basis built densely by refining the identity:
     loss B^T W B, gradient and Hessian B^T W B - U^T diag(w / kappa) U plus the
@@ -280,7 +290,6 @@ def test_fit_model_equals_dense_assembly(n, boundary):
     from fitting._init import second_differences
     from fitting._objective import BACK_WEIGHT, FitData, Objective
 
-    scheme = js.CubicBSpline()
     hermite = boundary != "clamped"
     t = np.linspace(0, 2 * np.pi, 60, endpoint=boundary != "closed")[: 60 if boundary == "closed" else 45]
     samples = jnp.asarray(np.stack([np.cos(t) + 0.2 * np.cos(3 * t), np.sin(t)], -1))

@@ -418,7 +418,8 @@ def test_feet_tracked_from_the_last_step_are_the_nearest_points(monkeypatch, ang
 
     samples = jnp.asarray(blob(300, seed=4))
     n, levels, scheme = 12, 6, js.CubicBSpline()
-    A, V = _curve.curve_basis(scheme, n, levels, "closed", samples.dtype, True)
+    A, V = (t.dense() for t in _curve.curve_tables(scheme, n, levels, "closed", samples.dtype,
+                                                     True))
     theta = np.linspace(0, 2 * np.pi, n, endpoint=False)
     P = np.stack([1.1 * np.cos(theta), np.sin(theta)], -1)
     previous = _curve.locate(samples, A @ P, V @ P, True, coarse=8)
@@ -630,6 +631,8 @@ def test_fit_under_filter_jit():
         (dict(boundary="periodic"), ValueError, "boundary"),
         (dict(fit_params=("w",)), ValueError, "no fittable parameter"),
         (dict(scheme=js.MaskScheme([0.25, 0.75, 0.75, 0.25], -2), fit_params=True), ValueError, "MaskScheme"),
+        (dict(scheme=js.Jarek(), fit_params=True), ValueError, "fit t with `SplitTweak(0.5)`"),
+        (dict(scheme=js.Chaikin(), fit_params=True), ValueError, "no parameters to fit"),
         (dict(weights=np.ones(5)), ValueError, "weights"),
         (dict(weights=-np.ones(100)), ValueError, "non-negative"),
         (dict(on_failure="shout"), ValueError, "on_failure"),

@@ -12,6 +12,7 @@ import sys
 import warnings
 from pathlib import Path
 
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -390,6 +391,26 @@ def test_result_json_reads_old_mask_files_and_checks_parameters(tmp_path):
             jio.read_result_json(path)
         assert all(w in str(error.value) for w in words), str(error.value)
         assert "\n" not in str(error.value)
+
+
+class _UserChaikin(js.AbstractCurveScheme):
+    """A scheme defined outside jaxsubdiv (the mask of Chaikin's scheme)."""
+
+    def mask(self):
+        return jnp.asarray([0.25, 0.75, 0.75, 0.25])
+
+    mask_start = -2
+    mask_length = 4
+
+
+def test_result_json_refuses_a_scheme_it_could_not_read_back(tmp_path):
+    """The reader rebuilds jaxsubdiv's schemes by class name, so the writer refuses a
+    user's class (with the MaskScheme way out) instead of writing an unreadable file."""
+    path = tmp_path / "user.json"
+    with pytest.raises(ValueError) as error:
+        jio.write_result_json(path, {"control_points": POLYGON, "scheme": _UserChaikin()})
+    assert "_UserChaikin" in str(error.value) and "MaskScheme" in str(error.value)
+    assert not path.exists()
 
 
 def test_saved_result_is_not_a_pytree_of_strings(tmp_path):

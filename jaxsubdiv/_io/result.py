@@ -58,13 +58,19 @@ def scheme_to_json(scheme: AbstractCurveScheme) -> dict:
 
     The parameters are the registry's (`jaxsubdiv.scheme_info(scheme).values`); a scheme
     the registry does not list (`MaskScheme`) saves its constructor's arguments, read
-    from the fields of the same names.
+    from the fields of the same names. A scheme class that is not jaxsubdiv's is refused
+    (the reader could not rebuild it).
     """
-    try:
-        info = scheme_info(scheme)
-    except ValueError:
-        info = None  # a user scheme outside the registry: its constructor's arguments
-    if info is not None and info.listed:
+    known = by_class_name().get(type(scheme).__name__)
+    if known is None or known.cls is not type(scheme):
+        # read_result_json rebuilds schemes by class name from jaxsubdiv's own.
+        raise ValueError(
+            f"result files record jaxsubdiv's schemes only, and {type(scheme).__name__} is "
+            "not one, so the file could not be read back; save its mask as "
+            "`jaxsubdiv.MaskScheme(scheme.mask(), scheme.mask_start)`."
+        )
+    info = scheme_info(scheme)
+    if info.listed:
         try:
             parameters = info.values(scheme)
         except (TypeError, ValueError):

@@ -136,20 +136,24 @@ class AbstractCurveScheme(eqx.Module):
         return eqx.tree_at(lambda m: tuple(getattr(m, p.name) for p in fitted), self, values)
 
     def _check_fit_start(self, p: Parameter, value) -> None:
-        # A value on a closed end of the valid range (SplitTweak(0)) starts just inside.
+        # A value on an end of the fit interval that is a closed end of the valid range
+        # (SplitTweak(0)) starts just inside; any other value outside it is an error.
         if isinstance(value, jax.core.Tracer):
             return
         low, high = p.fit_interval
         value = np.asarray(value)
         inside = (low < value) & (value < high)
-        on_edge = ((value == p.low) & (not p.low_open)) | ((value == p.high) & (not p.high_open))
+        on_edge = ((value == low) & (low == p.low) & (not p.low_open)) | (
+            (value == high) & (high == p.high) & (not p.high_open))
         if not bool(np.all(inside | on_edge)):
             title = getattr(type(self), "scheme_title", type(self).__name__)
+            why = (f", where the {title} scheme is known to be C1" if p.c1 == p.fit_interval
+                   else "")
             raise ValueError(
                 f"fitting `{p.name}` starts from the scheme's {p.name} = "
                 f"{float(np.max(value)) if value.ndim else float(value):.4g}; it must lie in "
-                f"({low:g}, {high:.6f}) (the range where the {title} scheme is known to be "
-                f"C1). Start from e.g. {type(self).__name__}({number_text(p.default)})."
+                f"({number_text(low)}, {number_text(high)}) (the interval the fit keeps it "
+                f"in{why}). Start from e.g. {type(self).__name__}({number_text(p.default)})."
             )
 
     def __check_init__(self):
