@@ -662,7 +662,7 @@ def test_lane_riesenfeld_at_the_largest_degree():
 def test_closed_form_counts_match_level_by_level_counts(name, scheme, boundary):
     if boundary == "clamped" and scheme.clamp_ghost is None:
         pytest.skip("no clamped rule")
-    n0 = js._refine._min_points(scheme, boundary)
+    n0 = js.min_points(scheme, boundary)
     for n in (n0, n0 + 1, n0 + 5):
         count = n
         for levels in range(6):

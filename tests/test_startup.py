@@ -123,7 +123,7 @@ def test_cache_can_be_switched_off_and_a_bad_folder_is_a_warning(tmp_path):
 
 
 def test_cache_folder_default_and_arguments(tmp_path, monkeypatch):
-    from jaxsubdiv._cache import compilation_cache_dir
+    from jaxsubdiv import compilation_cache_dir
 
     monkeypatch.delenv("JAXSUBDIV_COMPILATION_CACHE", raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
