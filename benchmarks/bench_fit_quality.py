@@ -28,8 +28,9 @@ Independent measurement (`measure`): the fitted control polygon's limit curve is
 evaluated by numpy code in this file (the closed uniform cubic B-spline by its basis
 functions; the parameterised schemes by refinement with their published rules and the
 exact limit-point stencils, see `refine_numpy`), resampled by arc length; curve-to-samples
-is the RMS (and max) over the resampled points (so an arc-length average) of the distance
-to the sample polyline, by brute force; samples-to-curve is each sample's distance to the
+is the RMS over the resampled points (so an arc-length average) of the distance to the
+sample polyline, by brute force, and the max over every point of the dense curve refined
+by branch and bound on its chords (the distance is 1-Lipschitz); samples-to-curve is each sample's distance to the
 dense curve, from a cKDTree over its points plus the projection onto the chords next to the
 nearest few. Two-sided = the larger of the two halves, as the fit defines it.
 
@@ -378,11 +379,27 @@ def measure(curve, samples, resampled=4096):
     even = resample_closed(curve, resampled)
     c2t = points_to_polyline(even, samples)
     t2c = points_to_dense_curve(samples, curve)
+    # The max: the distance to a polyline peaks at kinks, which points 1/4096 of the
+    # length apart miss by up to half that spacing, and chords between them cut the
+    # tip of a tight bend (measured: 0.6076 against 0.7389 on the hand icon, 400,000
+    # points). So the max is taken over every point of the dense curve, and since the
+    # distance is 1-Lipschitz, between neighbours i, i + 1 it stays below
+    # (d_i + d_{i+1} + |p_i - p_{i+1}|) / 2: every piece whose bound exceeds the
+    # largest found is sampled again at 65 points (branch and bound).
+    at_vertices = points_to_polyline(curve, samples)
+    following = np.roll(curve, -1, axis=0)
+    bound = 0.5 * (at_vertices + np.roll(at_vertices, -1)
+                   + np.linalg.norm(following - curve, axis=-1))
+    open_pieces = np.flatnonzero(bound > at_vertices.max())
+    fraction = np.linspace(0.0, 1.0, 65)[None, :, None]
+    dense = curve[open_pieces, None, :] + fraction * (following - curve)[open_pieces, None, :]
+    peak = max(at_vertices.max(),
+               points_to_polyline(dense.reshape(-1, curve.shape[-1]), samples).max(initial=0.0))
     halves = {
         "rms_target_to_curve": float(np.sqrt(np.mean(t2c**2))),
         "max_target_to_curve": float(t2c.max()),
         "rms_curve_to_target": float(np.sqrt(np.mean(c2t**2))),
-        "max_curve_to_target": float(c2t.max()),
+        "max_curve_to_target": float(max(c2t.max(), peak)),
     }
     halves["rms"] = max(halves["rms_target_to_curve"], halves["rms_curve_to_target"])
     halves["max_error"] = max(halves["max_target_to_curve"], halves["max_curve_to_target"])
@@ -680,7 +697,8 @@ def markdown(data):
         "independently of the fit's report: the fitted control polygon's limit curve "
         "evaluated by numpy (B-spline basis, or refinement by the published rules with "
         "exact limit stencils), resampled by arc length; curve-to-samples RMS over it "
-        "(arc-length average, distance to the sample polyline, brute force); "
+        "(arc-length average, distance to the sample polyline, brute force), its max over "
+        "every point of the dense curve refined by branch and bound (1-Lipschitz); "
         "samples-to-curve by a global nearest point (cKDTree + chords); two-sided = the "
         "larger RMS. Errors are in the outline's units (glyphs ~0.7 tall; silhouettes "
         "and icons in pixels).", "",
