@@ -120,7 +120,12 @@ def canonical_order(target: Float[Array, "m d"], count=None) -> Int[Array, " m"]
     if target.shape[1] < 2:  # a curve in one coordinate has no orientation
         twice_area = jnp.zeros((), target.dtype)
     else:
-        x, y = target[:, 0], target[:, 1]
+        # In units of the largest offset from that sample: products of coordinates of
+        # 1e160 would overflow (and of 1e-300 underflow), and the sign with them.
+        offset = target[:, :2] - target[start, :2]
+        reach = jnp.max(jnp.where(valid[:, None], jnp.abs(offset), 0.0))
+        offset = offset / jnp.where(reach > 0, reach, 1.0)
+        x, y = offset[:, 0], offset[:, 1]
         twice_area = jnp.sum(x * jnp.roll(y, -1) - jnp.roll(x, -1) * y)
     step = jnp.where(twice_area < 0, -1, 1)
     return jnp.mod(start + step * jnp.minimum(index, count - 1), count)
