@@ -21,7 +21,7 @@ from jaxsubdiv.validation import is_traced
 
 from . import _exported, _progress
 from ._curve import curve_samples
-from ._init import initial_control
+from ._init import canonical_order, initial_control
 from ._objective import FitData, Objective
 from ._params import from_unconstrained, to_unconstrained
 from ._result import FitResult, status_code
@@ -60,6 +60,15 @@ def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver
     an optimistix solver (`_solver.make_solver`, its tolerances fixed at construction),
     `max_steps` is its static step limit. `progress`: a line per solver step.
     """
+    if objective.closed:
+        # The samples in an order found from them as a set (`_init.canonical_order`):
+        # the fit is then the same, bit for bit, for any phase and direction.
+        order = canonical_order(data.target, data.count)
+        outline = jnp.arange(order.shape[0]) < (order.shape[0] if data.count is None
+                                                else data.count)
+        data = eqx.tree_at(lambda d: (d.target, d.weights), data,
+                           (data.target[order],
+                            jnp.where(outline, data.weights[order], data.weights)))
     target, weights, scheme = data.target, data.weights, data.scheme
     dtype = target.dtype
     # Samples with zero weight (including the padding) are ignored.

@@ -55,10 +55,18 @@ def _window_project(points, curve, closed, window, count=None):
     AB = B - A
     length2 = jnp.sum(AB**2, -1)
     safe = jnp.where(length2 > 0, length2, 1.0)
-    u = jnp.clip(jnp.sum((points[:, None, :] - A) * AB, -1) / safe, 0.0, 1.0)
-    u = jnp.where(length2 > 0, u, 0.0)
-    foot = A + u[..., None] * AB
-    best = jnp.argmin(jnp.sum((points[:, None, :] - foot) ** 2, -1), axis=1)
+    raw = jnp.where(length2 > 0, jnp.sum((points[:, None, :] - A) * AB, -1) / safe, 0.0)
+    u = jnp.clip(raw, 0.0, 1.0)
+    # A foot at a vertex is that vertex exactly (not A + 1 * AB, which rounds), so the
+    # two chords meeting there tie exactly; the tie goes to the chord the point lies
+    # less far beyond the end of (a geometric rule): with the first index winning, the
+    # chord chosen, and with it its band (`Objective._band`), depended on which way
+    # the samples ran (a reversed serif 'g': curves 2.9e-4 of the size apart).
+    foot = jnp.where((u == 1)[..., None], B, A + u[..., None] * AB)
+    square = jnp.sum((points[:, None, :] - foot) ** 2, -1)
+    beyond = (jnp.maximum(raw - 1, 0.0) + jnp.maximum(-raw, 0.0)) * jnp.sqrt(length2)
+    nearest = square == jnp.min(square, axis=1, keepdims=True)
+    best = jnp.argmin(jnp.where(nearest, beyond, jnp.inf), axis=1)
     pick = lambda x: jnp.take_along_axis(x, best[:, None], axis=1)[:, 0]
     return pick(window), pick(u)
 

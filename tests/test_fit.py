@@ -68,8 +68,13 @@ def _recover(truth, start, m=300, levels=11):
     # between corresponding points bounds the distance between the curves (a polyline
     # comparison would measure its own chords: 5e-6 of the size for these four-point
     # curves).
-    fitted = exact_curve(result.control_points, result.scheme)
-    error = np.sqrt(np.sum((fitted - dense) ** 2, -1)).max()
+    # A closed curve's control polygon is defined up to a cyclic relabelling, and the fit
+    # picks its phase from the samples (issue #14): compare at the best relabelling.
+    error = min(
+        np.sqrt(np.sum((exact_curve(np.roll(result.control_points, k, axis=0), result.scheme)
+                        - dense) ** 2, -1)).max()
+        for k in range(len(TRUE_CONTROL))
+    )
     return result, error / np.linalg.norm(np.ptp(dense, axis=0))
 
 
@@ -225,10 +230,17 @@ def test_newton_step_estimates_the_distance_to_the_optimum():
             assert remaining / 3 < float(result.newton_step) < 3 * remaining
         else:  # converged to the floor (measured: 2.8e-8 at 1e-7): the estimate says so
             assert float(result.newton_step) < 3 * floor
-    # A loose tol stopped this fit where the loss still curves down along some
-    # direction (the Hessian had a negative eigenvalue, measured): not a minimum.
-    loose = fitting.fit(glyph_outline("S"), js.CubicBSpline(), 32, tol=1e-5)
-    assert bool(loose.converged) and float(loose.newton_step) == np.inf
+    # Where the Hessian is not positive definite the estimate is inf (a loose fit of 'S'
+    # at n = 32 once stopped at such a point; which fits do depends on their start):
+    # checked on a given model, against the closed form H^-1 g.
+    from fitting._core import newton_step
+
+    y = {"control": jnp.zeros((1, 2)), "params": {}}
+    gradient = jnp.array([1.0, 2.0])
+    definite = (0.0, gradient, jnp.diag(jnp.array([2.0, 4.0])))
+    indefinite = (0.0, gradient, jnp.diag(jnp.array([2.0, -4.0])))
+    assert float(newton_step(None, y, None, model=definite)) == 0.5
+    assert float(newton_step(None, y, None, model=indefinite)) == np.inf
 
 
 # --------------------------------------------------------------------------------------
@@ -500,8 +512,13 @@ def test_gradient_of_the_reported_errors(boundary):
     # float64 determines its optimum only to ~2.5e-7 (`newton_step`), and its maximum
     # error then varies by ~1e-8 at random between nearby targets (measured: the
     # residual of a quadratic through 21 fits 1e-6 apart), which is 3% of a difference
-    # quotient at 1e-5. A little smoothing pins the sliding down (noise 4e-10).
-    smoothing = 1e-4 if boundary == "closed" else 0.0
+    # quotient at 1e-5. Smoothing pins the sliding down: 1e-4 did (noise 4e-10) until
+    # the samples were put in their canonical order (issue #14), which starts this fit
+    # elsewhere; then the quotients of the curve-to-samples RMS (a mean over curve
+    # samples uniform in parameter, which move when the control points slide) scattered
+    # by 1-4% between steps 1e-5 and 1e-7 at smoothing 1e-4 and 1e-3 (0.01706, 0.01663,
+    # 0.01771 against the implicit 0.016817 at 1e-4). At 1e-2 they settle.
+    smoothing = 1e-2 if boundary == "closed" else 0.0
 
     def errors(target):
         result = fitting.fit(target, js.CubicBSpline(), 8, levels=8, boundary=boundary,
