@@ -17,9 +17,8 @@ SHIFTS = (0, 100, 200, 300)
 
 
 def star(m=400, points=5):
-    """A five-point star: ten sharp corners, where the fit's rounding of a start that is
-    the same up to rounding had been amplified (3.5x apart in error on matplotlib's
-    logo)."""
+    """A five-point star: ten sharp corners, where a start that is the same only up to
+    rounding can end in different local minima."""
     angle = np.pi / 2 + np.arange(2 * points) * np.pi / points
     radius = np.where(np.arange(2 * points) % 2 == 0, 1.0, 0.4)
     return resample_closed(np.stack([radius * np.cos(angle), radius * np.sin(angle)], -1), m)
