@@ -33,6 +33,7 @@ from jaxtyping import Array, ArrayLike, Float, Int
 from jaxsubdiv import AbstractCurveScheme
 
 from ._curve import (
+    BLOCK_PAIRS,
     band_basis,
     band_rows,
     chord_band,
@@ -41,6 +42,7 @@ from ._curve import (
     evaluate,
     foot_residual,
     locate,
+    nearest_on_curve,
     project,
     safe_norm,
     track,
@@ -52,6 +54,45 @@ from ._params import from_unconstrained
 #: Weight of the curve-to-target distances (beyond their chord band, `_band`) relative
 #: to the target-to-curve ones.
 BACK_WEIGHT = 0.1
+
+
+#: Points of the curve by which `Objective.errors` refines its maximum distance to the
+#: target near the largest found at the curve samples and midpoints.
+REFINE_MAX = 64
+
+
+def _to_polyline(points, target, closed, count):
+    """Distance from a few `points` to the polyline through the first `count` of
+    `target` (all when None), every chord checked (differentiable at the nearest chord
+    held; zero derivative on the polyline)."""
+    m = target.shape[0]
+    index = jnp.arange(m)
+    if count is None:
+        count = m
+    a = target
+    b = target[(index + 1) % m] if closed else target[jnp.minimum(index + 1, m - 1)]
+    if closed:  # the chord from the outline's last sample closes it; padding is a point
+        b = jnp.where((index == count - 1)[:, None], target[0], b)
+
+    def nearest(a, b):
+        ab = b - a
+        length2 = jnp.sum(ab**2, -1)
+        safe = jnp.where(length2 > 0, length2, 1.0)
+        ap = points[:, None, :] - a[None]
+        u = jnp.where(length2 > 0, jnp.clip(jnp.sum(ap * ab, -1) / safe, 0.0, 1.0), 0.0)
+        gap = ap - jax.lax.stop_gradient(u)[..., None] * ab
+        return jnp.min(safe_norm(gap.reshape(-1, gap.shape[-1])).reshape(gap.shape[:2]), axis=1)
+
+    # In blocks of chords (repeating the last chord, which leaves the minimum), so that
+    # the arrays of one block (2d + 2 numbers per point-chord pair) hold at most
+    # `BLOCK_PAIRS` numbers for any sample count.
+    size = max(1, BLOCK_PAIRS // (points.shape[0] * (2 * points.shape[1] + 2)))
+    if m <= size:
+        return nearest(a, b)
+    pad = -m % size
+    split = lambda x: jnp.concatenate([x, jnp.repeat(x[-1:], pad, axis=0)]).reshape(
+        -1, size, x.shape[-1])
+    return jnp.min(jax.lax.map(lambda ends: nearest(*ends), (split(a), split(b))), axis=0)
 
 
 class FitData(eqx.Module):
@@ -225,44 +266,80 @@ class Objective(eqx.Module):
         return self.residuals_at(y, args, self.feet(y, args))
 
     def errors(self, y, data: FitData, feet=None) -> tuple[Array, TwoSidedErrors]:
-        """The curve at `y` (its samples `(N, d)`) and its two-sided distances to the
+        r"""The curve at `y` (its samples `(N, d)`) and its two-sided distances to the
         samples of `data`, in their units.
 
-        Target to curve: each sample's distance to the curve (on the Hermite curve, to
-        its nearest point found by `_curve.locate`, so never below the true distance;
-        else to the chords), RMS over the samples with non-zero weight. Curve to
-        target: each curve sample's distance to the polyline through the first
-        `data.count` samples. Differentiated with the nearest points held (the distance
-        is stationary in them), with a zero derivative for a sample exactly on the curve.
+        - Target to curve: each sample's distance to the curve (the Hermite curve of
+          `_curve.evaluate` for $C^1$ schemes, else the chords between the curve
+          samples) at its global nearest point: certified on the chords
+          (`_curve.nearest_on_polyline`), refined by Newton's method on the Hermite curve
+          (`_curve.nearest_on_curve`: never below the true distance, and above it by at
+          most twice the curve's largest deviation from its chords). RMS over the samples
+          with non-zero weight (each counted once, whatever its weight).
+        - Curve to target: the distance of each point of the curve to the polyline
+          through the first `data.count` samples, averaged by *arc length* along the
+          curve (Simpson's rule on each segment between curve samples, from its ends
+          and its midpoint, with the segment's chord as its length: not by parameter,
+          which weighs the curve where its samples crowd, at corners, more), and its
+          maximum over the curve samples and those midpoints, refined near the largest
+          by `REFINE_MAX` more points of the curve.
 
-        `feet`: the foot points a solver found at `y` (`feet(y, data)`'s), if any. On
-        a closed Hermite curve they are the nearest points and are used as they are,
-        which saves compiling the search once more; open curves pin their ends' feet,
-        so the search is made afresh there.
+        Differentiated with the nearest points held (the distance is stationary in them),
+        with a zero derivative for a sample exactly on the curve.
+
+        `feet`: the foot points a solver found at `y` (`feet(y, data)`'s), if any: on a
+        closed Hermite curve each sample keeps the nearer of its tracked foot and the
+        global nearest point (a tracked foot can sit on a branch of the curve that is no
+        longer nearest).
         """
         target, valid = data.target, data.weights > 0
         _, A, V, _ = self.basis(y, data)
         P = y["control"]
         X = A @ P
+        VX = None if V is None else V @ P
         if self.hermite:
-            VX = V @ P
-            if feet is None or not self.closed:
-                tau = locate(target, X, VX, self.closed,
-                             coarse=max(1, min(8, self.num_curve // 64)))
-            else:
-                tau = feet[0]
-            point, _ = evaluate(X, VX, jax.lax.stop_gradient(tau), self.closed)
+            previous = feet[0] if feet is not None and self.closed else None
+            tau = nearest_on_curve(target, X, VX, self.closed, previous=previous)
+            point, _ = evaluate(X, VX, tau, self.closed)
             to_curve = safe_norm(point - target)
         else:
             to_curve = distances(target, X, self.closed)
         to_curve = jnp.where(valid, to_curve, 0.0)
-        to_target = distances(X, target, self.closed, count=data.count)
+        # The curve's segments: ends, midpoints (on the Hermite curve or the chord) and
+        # chord lengths, for Simpson's rule in arc length.
+        segments = self.num_curve if self.closed else self.num_curve - 1
+        middle = jnp.arange(segments, dtype=target.dtype) + 0.5
+        (midpoint,) = evaluate(X, VX, middle, self.closed, order=0)
+        ends = jnp.roll(X, -1, axis=0) if self.closed else X[1:]
+        length = safe_norm(ends - X[:segments])
+        to_target = distances(jnp.concatenate([X, midpoint]), target, self.closed,
+                              count=data.count)
+        at_vertex, at_middle = to_target[: self.num_curve] ** 2, to_target[self.num_curve:] ** 2
+        after = jnp.roll(at_vertex, -1) if self.closed else at_vertex[1:]
+        integral = length @ (at_vertex[:segments] + 4 * at_middle + after) / 6
+        total = jnp.sum(length)
+        # A curve of zero length (all control points equal) has no arc length to
+        # average over: then every point is the same point.
+        mean_square = jnp.where(total > 0, integral / jnp.where(total > 0, total, 1.0),
+                                at_vertex[0])
+        # The maximum: refined around the largest of those values, where the distance
+        # (1-Lipschitz along the curve) peaks between samples (at a kink of the target,
+        # typically), by `REFINE_MAX` more points of the curve within half a segment of
+        # it either way, measured to every chord of the target (few points: no search).
+        largest = jnp.argmax(to_target)
+        centre = jnp.where(largest < self.num_curve, largest, largest - self.num_curve + 0.5)
+        around = centre.astype(target.dtype) + jnp.linspace(-0.5, 0.5, REFINE_MAX,
+                                                            dtype=target.dtype)
+        if not self.closed:
+            around = jnp.clip(around, 0.0, self.num_curve - 1.0)
+        (near_peak,) = evaluate(X, VX, around, self.closed, order=0)
+        peak = jnp.max(_to_polyline(near_peak, target, self.closed, data.count))
         share = (valid / jnp.sum(valid)).astype(target.dtype)
         return X, TwoSidedErrors(
             rms_target_to_curve=jnp.sqrt(share @ to_curve**2),
             max_target_to_curve=jnp.max(to_curve),
-            rms_curve_to_target=jnp.sqrt(jnp.mean(to_target**2)),
-            max_curve_to_target=jnp.max(to_target),
+            rms_curve_to_target=jnp.sqrt(mean_square),
+            max_curve_to_target=jnp.maximum(jnp.max(to_target), peak),
         )
 
     def quadratic_model(self, y, args, feet=None):

@@ -58,14 +58,17 @@ class FitResult(eqx.Module):
 
     All array fields carry a leading batch axis for `fit_batch`. Distances are in the
     target's units and *two-sided*: target to curve (each sample's distance to the limit
-    curve: to its Hermite model, within O(h^4) of it, for C^1 schemes, else to the
-    chords between the exact samples in `curve`) and curve to target (each point of
-    `curve` to the polyline through the ordered samples), so a curve that wanders away
-    from the data between samples is caught. `rms` and `max_error` are the larger of the
-    two directions. The curve-to-target half includes the chords' own sagitta: a curve
-    through noise-free samples of a curved outline has `rms_target_to_curve` ~ 0 but
-    `rms_curve_to_target` about h^2 kappa / 8 for sample spacing h and curvature kappa.
-    All are differentiable (at their nearest points, held fixed).
+    curve at its global nearest point: to its Hermite model, within O(h^4) of it, for
+    C^1 schemes, else to the chords between the exact samples in `curve`; RMS over the
+    samples with non-zero weight) and curve to target (the curve's distance to the
+    polyline through the ordered samples, RMS by arc length along the curve and
+    maximum), so a curve that wanders away from the data between samples is caught.
+    `rms` and `max_error` are the larger of the two directions. How each is computed
+    and how exact it is: `docs/fitting.md`, "Reported errors". The curve-to-target half
+    includes the chords' own sagitta: a curve through noise-free samples of a curved
+    outline has `rms_target_to_curve` ~ 0 but `rms_curve_to_target` about
+    h^2 kappa / 8 for sample spacing h and curvature kappa. All are differentiable (at
+    their nearest points, held fixed).
 
     **Fields:**
 

@@ -153,10 +153,14 @@ def polyline_distances(points, polyline, closed=True):
 
 
 def two_sided_rms(curve, samples):
-    """max(RMS samples -> curve, RMS curve -> polyline through the samples)."""
+    """max(RMS samples -> curve, RMS curve -> polyline through the samples), both
+    closed polylines; the curve's half averaged by arc length along the dense `curve`
+    (each point weighted by half its two chords), as `fitting.FitResult.rms` is."""
     t2c = polyline_distances(samples, curve)
     c2t = polyline_distances(curve, samples)
-    return max(np.sqrt(np.mean(t2c**2)), np.sqrt(np.mean(c2t**2)))
+    chord = np.linalg.norm(np.roll(curve, -1, axis=0) - curve, axis=-1)
+    share = 0.5 * (chord + np.roll(chord, 1))
+    return max(np.sqrt(np.mean(t2c**2)), np.sqrt(share @ c2t**2 / share.sum()))
 
 
 def splprep_curve(samples, n, dense=4096):

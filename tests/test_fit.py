@@ -915,6 +915,9 @@ def test_exported_program_gives_the_jitted_fit_and_loads_without_tracing(exporte
     assert stored.stat().st_size > 1000
 
     jitted = eqx.filter_jit(lambda t: fitting.fit(t, scheme, 10, smoothing=1e-3).rms)
-    # (compiled inside another program: other rounding, measured 2e-10)
-    np.testing.assert_allclose(jitted(samples), first.rms, rtol=1e-8)
+    # Compiled inside another program, the fit rounds otherwise and stops elsewhere
+    # within its tolerance (measured: control points 1.3e-6 apart, `newton_step` 4e-5
+    # and 3e-5, the same 16 steps): its RMS 1.25e-8 apart (its curve-to-samples half;
+    # the other half 4e-9).
+    np.testing.assert_allclose(jitted(samples), first.rms, rtol=1e-7)
     assert len(list(exported_programs.iterdir())) == 1
