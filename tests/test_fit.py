@@ -517,7 +517,10 @@ def test_gradient_of_the_reported_errors(boundary):
     # elsewhere; then the quotients of the curve-to-samples RMS (a mean over curve
     # samples uniform in parameter, which move when the control points slide) scattered
     # by 1-4% between steps 1e-5 and 1e-7 at smoothing 1e-4 and 1e-3 (0.01706, 0.01663,
-    # 0.01771 against the implicit 0.016817 at 1e-4). At 1e-2 they settle.
+    # 0.01771 against the implicit 0.016817 at 1e-4). At 1e-2 they settle. The
+    # arc-length average that replaced that mean did not cure it: at 1e-4 one quotient
+    # still scatters (-0.01299, -0.01308, -0.01278, -0.01022 at 1e-5 ... 1e-8 against
+    # the implicit -0.01297), so the noise is the stopping point's, not the measure's.
     smoothing = 1e-2 if boundary == "closed" else 0.0
 
     def errors(target):
