@@ -227,7 +227,7 @@ def foot_residual(
     return jnp.where(interior[:, None], line, vertex)
 
 
-def _all_distances(points, curve, closed, chunk):
+def all_distances(points, curve, closed, chunk):
     """Nearest point of the polyline to each point, every segment checked: (segment,
     fraction). Chunks of `chunk` points (fewer when the curve is long: at most
     `BLOCK_PAIRS` point-segment pairs) bound the memory to chunk x N x d."""
@@ -353,7 +353,7 @@ def nearest_on_polyline(
         # (`lax.cond` inside `lax.map` runs one branch): a fit far from converged
         # (20,000 samples after one step) had a few unsure points and spent 52 s
         # checking every point.
-        return jax.lax.cond(jnp.any(unsure), lambda: _all_distances(p, curve, closed, chunk),
+        return jax.lax.cond(jnp.any(unsure), lambda: all_distances(p, curve, closed, chunk),
                             lambda: (segment, fraction))
 
     return _in_row_blocks(recheck, curve.shape[0], points, unsure, segment, fraction)

@@ -33,7 +33,7 @@ from jaxtyping import Array, ArrayLike, Float, Int
 from jaxsubdiv import AbstractCurveScheme
 
 from ._curve import (
-    BLOCK_PAIRS,
+    all_distances,
     band_basis,
     band_rows,
     chord_band,
@@ -59,40 +59,6 @@ BACK_WEIGHT = 0.1
 #: Points of the curve by which `Objective.errors` refines its maximum distance to the
 #: target near the largest found at the curve samples and midpoints.
 REFINE_MAX = 64
-
-
-def _to_polyline(points, target, closed, count):
-    """Distance from a few `points` to the polyline through the first `count` of
-    `target` (all when None), every chord checked (differentiable at the nearest chord
-    held; zero derivative on the polyline)."""
-    m = target.shape[0]
-    index = jnp.arange(m)
-    if count is None:
-        count = m
-    a = target
-    b = target[(index + 1) % m] if closed else target[jnp.minimum(index + 1, m - 1)]
-    if closed:  # the chord from the outline's last sample closes it; padding is a point
-        b = jnp.where((index == count - 1)[:, None], target[0], b)
-
-    def nearest(a, b):
-        ab = b - a
-        length2 = jnp.sum(ab**2, -1)
-        safe = jnp.where(length2 > 0, length2, 1.0)
-        ap = points[:, None, :] - a[None]
-        u = jnp.where(length2 > 0, jnp.clip(jnp.sum(ap * ab, -1) / safe, 0.0, 1.0), 0.0)
-        gap = ap - jax.lax.stop_gradient(u)[..., None] * ab
-        return jnp.min(safe_norm(gap.reshape(-1, gap.shape[-1])).reshape(gap.shape[:2]), axis=1)
-
-    # In blocks of chords (repeating the last chord, which leaves the minimum), so that
-    # the arrays of one block (2d + 2 numbers per point-chord pair) hold at most
-    # `BLOCK_PAIRS` numbers for any sample count.
-    size = max(1, BLOCK_PAIRS // (points.shape[0] * (2 * points.shape[1] + 2)))
-    if m <= size:
-        return nearest(a, b)
-    pad = -m % size
-    split = lambda x: jnp.concatenate([x, jnp.repeat(x[-1:], pad, axis=0)]).reshape(
-        -1, size, x.shape[-1])
-    return jnp.min(jax.lax.map(lambda ends: nearest(*ends), (split(a), split(b))), axis=0)
 
 
 class FitData(eqx.Module):
@@ -325,7 +291,8 @@ class Objective(eqx.Module):
         # The maximum: refined around the largest of those values, where the distance
         # (1-Lipschitz along the curve) peaks between samples (at a kink of the target,
         # typically), by `REFINE_MAX` more points of the curve within half a segment of
-        # it either way, measured to every chord of the target (few points: no search).
+        # it either way, measured to every chord of the target (few points: no search;
+        # the padding's chords have length zero at the last sample).
         largest = jnp.argmax(to_target)
         centre = jnp.where(largest < self.num_curve, largest, largest - self.num_curve + 0.5)
         around = centre.astype(target.dtype) + jnp.linspace(-0.5, 0.5, REFINE_MAX,
@@ -333,7 +300,10 @@ class Objective(eqx.Module):
         if not self.closed:
             around = jnp.clip(around, 0.0, self.num_curve - 1.0)
         (near_peak,) = evaluate(X, VX, around, self.closed, order=0)
-        peak = jnp.max(_to_polyline(near_peak, target, self.closed, data.count))
+        segment, fraction = all_distances(*jax.lax.stop_gradient((near_peak, target)),
+                                          self.closed, chunk=REFINE_MAX)
+        peak = jnp.max(safe_norm(foot_residual(near_peak, target, segment, fraction,
+                                               self.closed)))
         share = (valid / jnp.sum(valid)).astype(target.dtype)
         return X, TwoSidedErrors(
             rms_target_to_curve=jnp.sqrt(share @ to_curve**2),

@@ -375,7 +375,7 @@ def test_distances_equal_brute_force(monkeypatch, closed, spread, fallback):
 
 
 def _assert_brute_force_distances(monkeypatch, points, polyline, closed, fallback):
-    calls = _executions(monkeypatch, _curve, "_all_distances")
+    calls = _executions(monkeypatch, _curve, "all_distances")
     ours = _curve.distances(jnp.asarray(points), jnp.asarray(polyline), closed)
     jax.block_until_ready(ours)
     assert bool(calls) == fallback
@@ -398,7 +398,7 @@ def test_distances_to_a_padded_polyline_are_certified_without_fallback(monkeypat
     ends = np.concatenate([polyline[:3], polyline[-3:]])
     points = np.concatenate([polyline[rng.integers(0, count, 600)], np.repeat(ends, 10, axis=0)])
     points = points + 0.002 * size * rng.standard_normal(points.shape)
-    calls = _executions(monkeypatch, _curve, "_all_distances")
+    calls = _executions(monkeypatch, _curve, "all_distances")
     ours = _curve.distances(jnp.asarray(points), jnp.asarray(padded), closed,
                             count=jnp.int32(count))
     jax.block_until_ready(ours)

@@ -6,7 +6,6 @@ measured with scipy's k-d tree and plain numpy, and its arc length by the dense
 polyline. Nothing here calls the fit's own distance code.
 """
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -15,7 +14,7 @@ from scipy.spatial import cKDTree
 
 import fitting
 import jaxsubdiv as js
-from fitting import _curve, _objective
+from fitting import _curve
 
 
 DENSE = 400_000
@@ -111,20 +110,3 @@ def test_nearest_point_is_global_where_a_tracked_foot_is_on_the_wrong_branch():
                                       True, previous=previous)
         found = np.linalg.norm(np.asarray(on(tau)) - points, axis=-1)
         np.testing.assert_allclose(found, truth, rtol=1e-6, atol=1e-12)
-
-
-@pytest.mark.parametrize("closed", [True, False], ids=["closed", "open"])
-def test_distances_to_the_target_in_blocks_match_brute_force(closed, monkeypatch):
-    # The maximum's refinement measures a few curve points to every chord of the
-    # target, in blocks of chords for long targets; padding repeats the last sample.
-    rng = np.random.default_rng(3)
-    count, padded = 37, 48
-    target = np.cumsum(rng.standard_normal((count, 2)), axis=0)
-    target = np.concatenate([target, np.repeat(target[-1:], padded - count, axis=0)])
-    points = rng.standard_normal((5, 2)) * 4
-    expected = polyline_distances(points, target[:count], closed=closed)
-    for block_pairs in (2**22, 5 * 6 * 7):  # one block; blocks of 7 chords (48 -> 7)
-        monkeypatch.setattr(_objective, "BLOCK_PAIRS", block_pairs)
-        found = jax.jit(_objective._to_polyline, static_argnums=2)(
-            jnp.asarray(points), jnp.asarray(target), closed, jnp.asarray(count))
-        np.testing.assert_allclose(np.asarray(found), expected, rtol=1e-12)
