@@ -128,8 +128,9 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
     holds: about 10 copies of the dense curve basis (N curve samples x n control
     points, with its tangents and their products), 3 blocks of the
     foot-point searches' points-by-anchors distances (at most `_curve.BLOCK_PAIRS`
-    entries each: they run in blocks of samples) and one of the reported maximum's
-    refinement (`_curve.all_distances`), and about 400 numbers per sample;
+    entries each: they run in blocks of samples) and the reported maximum's
+    refinement (`_curve.all_distances`: up to 8 numbers for each of at most
+    `BLOCK_PAIRS` pairs), and about 400 numbers per sample;
     with `ordered=False` also the m x m arrays of `order_samples` (measured: 0.63 GB
     at m = 5,000, about 3 float64 copies; 4 are counted). Linear in `m` at fixed
     `levels`, and at the default `levels` too (which grow with log m).
@@ -145,8 +146,9 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
     anchors = N // max(1, min(8, N // 64))
     itemsize = np.dtype(dtype).itemsize
     m = bucket(m)
-    # The maximum's refinement: REFINE_MAX points by m chords (in blocks), d numbers a pair.
-    refine = min(REFINE_MAX * 8 * m, BLOCK_PAIRS)
+    # The maximum's refinement (`_curve.all_distances`): its points by m chords,
+    # at most BLOCK_PAIRS pairs at once, 2d + 2 numbers a pair (8 covers d <= 3).
+    refine = 8 * min(REFINE_MAX * m, BLOCK_PAIRS)
     searches = 3 * min(m * anchors, BLOCK_PAIRS) + refine
     ordering = 0 if ordered else 4 * 8 * m * m  # order_samples works in float64
     return itemsize * (10 * N * n + searches + 400 * m) + ordering

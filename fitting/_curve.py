@@ -609,7 +609,7 @@ def nearest_on_curve(
     segment `k` lies within $\delta_k = \tfrac{4}{27}(|V_k - \Delta_k| + |V_{k+1} -
     \Delta_k|)$ of its chord $\Delta_k = X_{k+1} - X_k$ (the Hermite basis's correction
     terms peak at 4/27), so the distance to the point found exceeds the true distance by
-    at most $2 \max_k \delta_k$ (about $h^2 \kappa / 4$ for sample spacing $h$ and
+    at most $2 \max_k \delta_k$ (about $0.3 h^2 \kappa$ for sample spacing $h$ and
     curvature $\kappa$), and only where two branches of the curve nearly tie; elsewhere
     Newton's method converges to the true nearest point. Unlike a foot tracked from an
     earlier curve, which may sit on a branch that is no longer nearest (the waist of an

@@ -61,6 +61,13 @@ BACK_WEIGHT = 0.1
 REFINE_MAX = 64
 
 
+def _safe_sqrt(x):
+    """The square root with a finite derivative (zero) at 0, where every distance is
+    zero (exact data)."""
+    positive = x > 0
+    return jnp.where(positive, jnp.sqrt(jnp.where(positive, x, 1.0)), 0.0)
+
+
 class FitData(eqx.Module):
     """The data of one fit: arrays, traced (new values reuse the compiled program).
 
@@ -248,7 +255,8 @@ class Objective(eqx.Module):
           and its midpoint, with the segment's chord as its length: not by parameter,
           which weighs the curve where its samples crowd, at corners, more), and its
           maximum over the curve samples and those midpoints, refined near the largest
-          by `REFINE_MAX` more points of the curve.
+          by `REFINE_MAX` more points of the curve (a peak elsewhere, up to a quarter
+          segment above its sampled neighbours, can be missed: measured at most 2%).
 
         Differentiated with the nearest points held (the distance is stationary in them),
         with a zero derivative for a sample exactly on the curve.
@@ -292,11 +300,13 @@ class Objective(eqx.Module):
         # (1-Lipschitz along the curve) peaks between samples (at a kink of the target,
         # typically), by `REFINE_MAX` more points of the curve within half a segment of
         # it either way, measured to every chord of the target (few points: no search;
-        # the padding's chords have length zero at the last sample).
+        # the padding's chords have length zero at the last sample). A peak elsewhere,
+        # up to a quarter segment above its sampled neighbours, can still be missed.
+        dtype = target.dtype
         largest = jnp.argmax(to_target)
-        centre = jnp.where(largest < self.num_curve, largest, largest - self.num_curve + 0.5)
-        around = centre.astype(target.dtype) + jnp.linspace(-0.5, 0.5, REFINE_MAX,
-                                                            dtype=target.dtype)
+        centre = jnp.where(largest < self.num_curve, largest.astype(dtype),
+                           (largest - self.num_curve).astype(dtype) + 0.5)
+        around = centre + jnp.linspace(-0.5, 0.5, REFINE_MAX, dtype=dtype)
         if not self.closed:
             around = jnp.clip(around, 0.0, self.num_curve - 1.0)
         (near_peak,) = evaluate(X, VX, around, self.closed, order=0)
@@ -306,9 +316,9 @@ class Objective(eqx.Module):
                                                self.closed)))
         share = (valid / jnp.sum(valid)).astype(target.dtype)
         return X, TwoSidedErrors(
-            rms_target_to_curve=jnp.sqrt(share @ to_curve**2),
+            rms_target_to_curve=_safe_sqrt(share @ to_curve**2),
             max_target_to_curve=jnp.max(to_curve),
-            rms_curve_to_target=jnp.sqrt(mean_square),
+            rms_curve_to_target=_safe_sqrt(mean_square),
             max_curve_to_target=jnp.maximum(jnp.max(to_target), peak),
         )
 
