@@ -56,18 +56,19 @@ def independent_errors(control, degree, samples, closed=True):
     to_curve = _distance_to_dense(np.asarray(samples), dense, closed)
     to_target = polyline_distances(dense, samples, closed=closed)
     # Each dense point's share of the arc length: half of each chord it ends.
-    chord = np.linalg.norm(np.diff(np.vstack([dense, dense[:1]]) if closed else dense,
-                                   axis=0), axis=-1)
-    length = 0.5 * (np.r_[chord, 0.0] + np.r_[0.0, chord])
     if closed:
+        chord = np.linalg.norm(np.roll(dense, -1, axis=0) - dense, axis=-1)
         length = 0.5 * (chord + np.roll(chord, 1))
+    else:
+        chord = np.linalg.norm(np.diff(dense, axis=0), axis=-1)
+        length = 0.5 * (np.r_[chord, 0.0] + np.r_[0.0, chord])
     return (np.sqrt(np.mean(to_curve**2)), to_curve.max(),
             np.sqrt(length @ to_target**2 / length.sum()), to_target.max())
 
 
-# (name, samples, scheme, degree of its limit B-spline, n): a glyph with a narrow waist
-# (tracked feet on the wrong branch), one with a hole's worth of corners, a smooth shape
-# on the quadratic B-spline.
+# (name, samples, scheme, degree of its limit B-spline, n, boundary): a glyph with a
+# narrow waist (tracked feet on the wrong branch), one with many corners, a smooth shape
+# on the quadratic B-spline, and an open stroke (the `open` boundary's own ends).
 cases = [
     ("glyph_8", lambda: glyph_outline("8"), js.CubicBSpline(), 3, 32, "closed"),
     ("glyph_g", lambda: glyph_outline("g"), js.CubicBSpline(), 3, 32, "closed"),
