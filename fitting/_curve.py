@@ -292,11 +292,15 @@ def _searched_groups(N: int, k: int, coarse: int, closed: bool, count):
     return searched
 
 
+def safe_sqrt(x: Float[Array, "..."]) -> Float[Array, "..."]:
+    """The square root with a finite derivative (zero) at 0 (a double `where`: no 0/0)."""
+    positive = x > 0
+    return jnp.where(positive, jnp.sqrt(jnp.where(positive, x, 1.0)), 0.0)
+
+
 def safe_norm(x: Float[Array, "m d"]) -> Float[Array, " m"]:
     """Row norms with a finite derivative (zero) where a row is zero."""
-    square = jnp.sum(x**2, -1)
-    positive = square > 0
-    return jnp.where(positive, jnp.sqrt(jnp.where(positive, square, 1.0)), 0.0)
+    return safe_sqrt(jnp.sum(x**2, -1))
 
 
 def nearest_on_polyline(

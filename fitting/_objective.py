@@ -45,6 +45,7 @@ from ._curve import (
     nearest_on_curve,
     project,
     safe_norm,
+    safe_sqrt,
     track,
 )
 from ._init import second_differences
@@ -59,13 +60,6 @@ BACK_WEIGHT = 0.1
 #: Points of the curve by which `Objective.errors` refines its maximum distance to the
 #: target near the largest found at the curve samples and midpoints.
 REFINE_MAX = 64
-
-
-def _safe_sqrt(x):
-    """The square root with a finite derivative (zero) at 0, where every distance is
-    zero (exact data)."""
-    positive = x > 0
-    return jnp.where(positive, jnp.sqrt(jnp.where(positive, x, 1.0)), 0.0)
 
 
 class FitData(eqx.Module):
@@ -316,9 +310,9 @@ class Objective(eqx.Module):
                                                self.closed)))
         share = (valid / jnp.sum(valid)).astype(target.dtype)
         return X, TwoSidedErrors(
-            rms_target_to_curve=_safe_sqrt(share @ to_curve**2),
+            rms_target_to_curve=safe_sqrt(share @ to_curve**2),
             max_target_to_curve=jnp.max(to_curve),
-            rms_curve_to_target=_safe_sqrt(mean_square),
+            rms_curve_to_target=safe_sqrt(mean_square),
             max_curve_to_target=jnp.maximum(jnp.max(to_target), peak),
         )
 
