@@ -182,6 +182,7 @@ def fit_batch(
     levels: int | None = None,
     boundary: Literal["closed", "open", "clamped"] = "closed",
     fit_params: bool | str | tuple[str, ...] = False,
+    profile: int | None = None,
     solver=None,
     max_steps: int = 200,
     tol: float | None = None,
@@ -269,10 +270,10 @@ def fit_batch(
             circle = np.zeros(t.shape)
             circle[:, 0], circle[:, 1] = np.cos(angle), np.sin(angle)
             t, w = jnp.asarray(circle, t.dtype), None
-        t, w, n, _, names = prepare(
+        t, w, n, _, names, values = prepare(
             t, scheme, n_control, levels=levels, boundary=boundary, fit_params=fit_params,
             weights=w, ordered=ordered, smoothing=smoothing, caller=f"fit_batch(targets[{i}])",
-            memory_budget=memory_budget,
+            memory_budget=memory_budget, profile=profile,
         )
         prepared.append((t, w))
     # One sample-count bucket for the whole batch: every item padded to it.
@@ -288,7 +289,7 @@ def fit_batch(
     max_steps = static_int(max_steps, "max_steps", minimum=1)
     tol = default_tol(stacked.dtype) if tol is None else check_tol(tol, "fit_batch")
     objective = make_objective(scheme, n=n, levels=levels, boundary=boundary, names=names,
-                               hermite=hermite, size=size)
+                               hermite=hermite, size=size, profile=values)
     own = make_solver(solver, tol, tol, progress)
     if progress:
         _progress.begin()

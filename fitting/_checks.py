@@ -169,10 +169,35 @@ def check_memory(caller, m, pad_to, n, levels, scheme, boundary, dtype, memory_b
         )
 
 
+#: The default profile (`_core.profile_start`): values per fitted parameter, by how many
+#: parameters are fitted (9 fits for w or t, 26 for r and s, each with the start).
+DEFAULT_PROFILE = {1: 8, 2: 5}
+
+#: The most fits a profile may hold: they run one after another (`jax.lax.map`, so one
+#: fit's memory at a time), and this bounds the time they take.
+PROFILE_LIMIT = 64
+
+
+def profile_values(profile, names: tuple[str, ...], caller: str = "fit") -> int:
+    """Resolve `fit(profile=...)`: values per fitted parameter (0 when none is fitted)."""
+    if profile is None:
+        return DEFAULT_PROFILE.get(len(names), 0)
+    values = static_int(profile, "profile", minimum=0)
+    if names and values ** len(names) > PROFILE_LIMIT:
+        raise ValueError(
+            f"`{caller}(profile={values})` with {len(names)} fitted parameters would hold "
+            f"{values ** len(names)} fits at once; the most is {PROFILE_LIMIT} (profile="
+            f"{int(PROFILE_LIMIT ** (1 / len(names)))} for {len(names)} parameters)."
+        )
+    return values if names else 0
+
+
 def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights, ordered,
-            smoothing, caller="fit", pad_to=0, memory_budget=DEFAULT_MEMORY_BUDGET):
+            smoothing, caller="fit", pad_to=0, memory_budget=DEFAULT_MEMORY_BUDGET,
+            profile=None):
     """Validate the arguments of `fit` (and each item of `fit_batch`); return the
-    checked target, weights, static settings and names."""
+    checked target, weights, static settings, names and profile values
+    (`profile_values`)."""
     target = float_array(target, "target")
     if target.dtype not in (jnp.float32, jnp.float64):
         raise TypeError(
@@ -215,6 +240,7 @@ def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights,
     else:
         levels = static_int(levels, "levels", minimum=1, maximum=40,
                             why=": the curve would have n x 2^levels samples")
+    profile = profile_values(profile, names, caller)
     check_memory(caller, m, pad_to, n, levels, scheme, boundary, target.dtype, memory_budget,
                  ordered)
     if weights is None:
@@ -286,7 +312,7 @@ def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights,
         )
     if not is_traced(smoothing) and not (math.isfinite(float(smoothing)) and float(smoothing) >= 0):
         raise ValueError(f"`{caller}(smoothing=...)` must be finite and >= 0, got {smoothing}.")
-    return target, weights, n, levels, names
+    return target, weights, n, levels, names, profile
 
 
 

@@ -525,8 +525,8 @@ def _add_fit(sub):
         for name in _fittable()
     )
     fit.add_argument("--fit-params", action="store_true",
-                     help=f"also fit the scheme's parameters ({fittable}), starting from the "
-                     "given values")
+                     help=f"also fit the scheme's parameters ({fittable}): the best of a few "
+                     "values held fixed (and the given ones), then refined jointly")
     fit.add_argument("--levels", type=int,
                      help="levels of the limit-curve polyline the errors are measured to "
                      "(default: enough for max(1024, 4 x samples) points)")
