@@ -53,42 +53,98 @@ recovery_cases = [
     ("four_point", js.FourPoint(0.09), js.FourPoint(1 / 16), "w"),
     ("split_tweak", js.SplitTweak(0.3), js.SplitTweak(0.5), "t"),
     ("corner_cutting", js.CornerCutting(0.2, 0.7), js.CornerCutting(0.25, 0.75), ("r", "s")),
+    # Issue #14: true values across the range, near its ends, each started at the far
+    # end (the profile's grid, not the start, finds the basin).
+    ("four_point_far", js.FourPoint(0.17), js.FourPoint(0.01), "w"),
+    ("four_point_low", js.FourPoint(0.02), js.FourPoint(0.18), "w"),
+    ("split_tweak_far", js.SplitTweak(0.9), js.SplitTweak(0.03), "t"),
+    ("split_tweak_low", js.SplitTweak(0.05), js.SplitTweak(0.97), "t"),
+    ("corner_cutting_far", js.CornerCutting(0.1, 0.4), js.CornerCutting(0.45, 0.95),
+     ("r", "s")),
+    ("corner_cutting_high", js.CornerCutting(0.6, 0.9), js.CornerCutting(0.05, 0.55),
+     ("r", "s")),
 ]
 
 
-def _recover(truth, start, m=300, levels=11):
+#: Cases whose fitted curve stays 4e-6 to 3e-5 of the size from the true one, from every
+#: start including the truth itself (its polygon and parameters): a bias of the loss, not
+#: a local minimum. The curve-to-samples half measures the curve's distance to the chords
+#: between the 300 samples beyond a band of a few sagittas (`_curve.chord_band`), and
+#: these curves of low regularity (w near either end, r and s far from 1/4, 3/4) bend
+#: beyond it between samples. Measured with the parameters held at the truth, from the
+#: true polygon: 4e-6 to 3.2e-5 with 300 samples; with 1200, 3e-7 (four-point), 1e-16
+#: (r, s = 0.1, 0.4), but still 3.7e-6 for (0.6, 0.9).
+BIASED_AT_300_SAMPLES = {"four_point_far", "four_point_low", "corner_cutting_far",
+                         "corner_cutting_high"}
+
+_recovered = {}
+
+
+def _curve_distance(control, scheme, dense):
+    """Largest distance between the curve of (`control`, `scheme`) and `dense`, both at
+    the same 2^11 parameters per control point, at the best cyclic relabelling of
+    `control` (a closed curve's polygon is defined up to one, and the fit picks its
+    phase from the samples: issue #14). It bounds the distance between the curves (a
+    polyline comparison would measure its own chords: 5e-6 of the size for these
+    four-point curves)."""
+    return min(
+        np.sqrt(np.sum((exact_curve(np.roll(control, k, axis=0), scheme) - dense) ** 2,
+                       -1)).max()
+        for k in range(len(control))
+    )
+
+
+def _recover(name, m=300, levels=11):
+    """The fit of case `name` of `recovery_cases` from its start, and the joint fit
+    started at the truth (true polygon and parameters, no profile), with their curves'
+    distances to the true curve in units of its size. Cached: two tests inspect each."""
+    if name in _recovered:
+        return _recovered[name]
+    _, truth, start, _ = next(case for case in recovery_cases if case[0] == name)
     dense = exact_curve(TRUE_CONTROL, truth)
+    size = np.linalg.norm(np.ptp(dense, axis=0))
     # Samples at arc-length positions that are not refined points (offset 0.37).
     samples = resample_closed(dense, m, offset=0.37)
-    result = fitting.fit(
-        samples, start, 8, fit_params=True, levels=levels, tol=1e-12, max_steps=500,
-        on_failure="raise",
-    )
-    # Both curves at the same 2^11 parameters per control point: the largest distance
-    # between corresponding points bounds the distance between the curves (a polyline
-    # comparison would measure its own chords: 5e-6 of the size for these four-point
-    # curves).
-    # A closed curve's control polygon is defined up to a cyclic relabelling, and the fit
-    # picks its phase from the samples (issue #14): compare at the best relabelling.
-    error = min(
-        np.sqrt(np.sum((exact_curve(np.roll(result.control_points, k, axis=0), result.scheme)
-                        - dense) ** 2, -1)).max()
-        for k in range(len(TRUE_CONTROL))
-    )
-    return result, error / np.linalg.norm(np.ptp(dense, axis=0))
+    settings = dict(fit_params=True, levels=levels, tol=1e-12, max_steps=500,
+                    on_failure="raise")
+    result = fitting.fit(samples, start, 8, **settings)
+    from_truth = fitting.fit(samples, truth, 8, init=TRUE_CONTROL, profile=0, **settings)
+    error = _curve_distance(result.control_points, result.scheme, dense) / size
+    truth_error = _curve_distance(from_truth.control_points, from_truth.scheme, dense) / size
+    between = _curve_distance(result.control_points, result.scheme,
+                              exact_curve(from_truth.control_points, from_truth.scheme)) / size
+    _recovered[name] = result, error, truth_error, between
+    return _recovered[name]
 
 
 @pytest.mark.parametrize(
     "name,truth,start,params", recovery_cases, ids=[c[0] for c in recovery_cases]
 )
-def test_recovers_parameters_and_curve(name, truth, start, params):
-    # Issue 4: parameters to 1e-3 and the curve to 1e-6 of its size, noise-free.
-    # Measured: 1.4e-7 (four-point), 1.2e-7 (split-and-tweak), 1.2e-11 (corner cutting,
-    # whose chord model needs the 11 levels; at 9 levels its chords limit it to 2.6e-6).
-    result, relative_error = _recover(truth, start)
+def test_recovers_parameters_from_any_start(name, truth, start, params):
+    """Issue #14: from the far end of the parameter range, the true parameters to 1e-3,
+    and the same optimum (curves within 1e-6 of the size) as the fit started at the
+    truth: no local minimum. Measured: 1e-12 to 6e-10 between the two curves."""
+    result, _, _, between = _recover(name)
     for p in (params,) if isinstance(params, str) else params:
         assert abs(float(getattr(result.scheme, p)) - float(getattr(truth, p))) < 1e-3, p
-    assert relative_error < 1e-6
+    assert between < 1e-6
+
+
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(c[0], marks=pytest.mark.xfail(
+        strict=True, reason="the curve-to-samples half's chord band biases the fit of "
+        "this low-regularity curve (BIASED_AT_300_SAMPLES)"))
+     if c[0] in BIASED_AT_300_SAMPLES else c[0] for c in recovery_cases],
+)
+def test_recovers_the_curve_to_1e_6(name):
+    """Issue 4: the curve to 1e-6 of its size, noise-free. Measured: 2e-8 (four-point
+    0.09), 1.2e-7 (split-and-tweak 0.3), 8e-12 (corner cutting 0.2, 0.7, whose chord
+    model needs the 11 levels; at 9 levels its chords limit it to 2.6e-6); the biased
+    cases 6e-6 to 3.2e-5, the same as from the truth (so strict: they must fail until
+    the bias is fixed, when they should be unmarked)."""
+    _, error, truth_error, _ = _recover(name)
+    assert error < 1e-6, (error, truth_error)
 
 
 # --------------------------------------------------------------------------------------
@@ -611,6 +667,78 @@ def test_model_matches_finite_differences_of_its_loss(scheme, hermite, n, bounda
     np.testing.assert_allclose(2 * float(v @ hessian @ v), curvature, rtol=2e-2)
 
 
+@pytest.mark.parametrize(
+    "scheme, names, hermite",
+    [(js.FourPoint(0.08), ("w",), True), (js.SplitTweak(0.4), ("t",), True),
+     (js.CornerCutting(0.3, 0.8), ("r", "s"), False)],
+    ids=["four_point", "split_tweak", "corner_cutting"],
+)
+def test_model_with_parameters_matches_finite_differences_of_its_loss(scheme, names, hermite):
+    """With scheme parameters fitted, the model's gradient (the parameters' entries by
+    forward mode, the control points' through one reverse-mode pullback) against
+    central finite differences of the loss with the feet found afresh, along a random
+    direction in control points and (unconstrained) parameters together."""
+    from fitting._checks import default_levels
+    from fitting._objective import FitData, Objective
+
+    samples, _ = _small_problem(60)
+    samples = (samples - samples.mean(0)) / 1.3
+    m, n = samples.shape[0], 8
+    levels = default_levels(n, m, hermite)
+    objective = Objective(n=n, levels=levels, boundary="closed", names=names,
+                          hermite=hermite, num_curve=_curve.curve_samples(scheme, n, levels,
+                                                                          "closed"),
+                          num_target=m)
+    args = FitData(target=samples, weights=jnp.ones(m), scheme=scheme,
+                   root_smoothing=jnp.sqrt(0.01))
+    fit = fitting.fit(samples, scheme, n, levels=levels, smoothing=0.01)
+    rng = np.random.default_rng(5)
+    y = {"control": fit.control_points + 0.01 * rng.standard_normal((n, 2)),
+         "params": {k: jnp.asarray(v + 0.1) for k, v in scheme.to_unconstrained(names).items()}}
+    direction = {"control": jnp.asarray(rng.standard_normal((n, 2))),
+                 "params": {k: jnp.asarray(rng.standard_normal()) for k in names}}
+    model = jax.jit(lambda y: objective.quadratic_model(y, args))
+    along = lambda h: jax.tree.map(lambda a, b: a + h * b, y, direction)
+    loss = lambda h: float(model(along(h))[0])
+    _, gradient, hessian = model(y)
+    v = jax.flatten_util.ravel_pytree(direction)[0]
+    h = 1e-5
+    slope = (loss(h) - loss(-h)) / (2 * h)
+    np.testing.assert_allclose(2 * float(gradient @ v), slope, rtol=1e-4)
+    assert hessian.shape == (2 * n + len(names),) * 2
+    np.testing.assert_allclose(hessian, hessian.T, rtol=1e-12, atol=1e-12)
+
+
+#: Real outlines and schemes on which fit_params=True must not do worse than holding the
+#: parameters at their starting values (issue #14: the joint fit alone did, on 5 of 18).
+never_worse_cases = [
+    ("a", js.FourPoint(), 16), ("S", js.SplitTweak(), 16), ("g", js.CornerCutting(), 16),
+    ("a", js.FourPoint(), 24),
+]
+
+
+@pytest.mark.parametrize("char, scheme, n", never_worse_cases,
+                         ids=[f"{c}-{type(s).__name__}-{n}" for c, s, n in never_worse_cases])
+def test_fitted_parameters_never_do_worse_than_the_start_held_fixed(char, scheme, n):
+    samples = glyph_outline(char, 300)
+    fixed = fitting.fit(samples, scheme, n)
+    fitted = fitting.fit(samples, scheme, n, fit_params=True)
+    independent = lambda r: two_sided_rms(np.asarray(r.curve), samples)
+    assert float(fitted.rms) <= float(fixed.rms) * (1 + 1e-9)
+    assert independent(fitted) <= independent(fixed) * (1 + 1e-6)
+
+
+@pytest.mark.parametrize(
+    "change, words",
+    [(dict(profile=-1), "`profile` must be"), (dict(profile=9), "the most is 64"),
+     (dict(profile=2.5), "`profile` must be")],
+)
+def test_bad_profile_is_a_clear_error(change, words):
+    with pytest.raises((ValueError, TypeError)) as info:
+        fitting.fit(blob(100), js.CornerCutting(), 8, fit_params=True, **change)
+    assert words in str(info.value)
+
+
 def test_gradient_on_exact_data_is_finite():
     """Samples exactly on the curve put held curve points on the target polyline: the
     curve-to-target term must still have a finite derivative there."""
@@ -901,6 +1029,12 @@ def test_exported_program_gives_the_jitted_fit_and_loads_without_tracing(exporte
     assert float(first.scheme.w) == float(plain.scheme.w)
 
     exported._LOADED.clear()
+    # The host's C1 certificate of the new value (`_params.uses_tangents`, eager JAX
+    # operations, which JAX traces again once its own caches have evicted them: seen
+    # in a parallel run) is not the fit: taken before listening.
+    from fitting._params import uses_tangents
+
+    uses_tangents(js.FourPoint(0.08), (), "closed")
     traces = []
     listen = lambda event, seconds, **kw: traces.append(kw.get("fun_name")) if "trace" in event else None
     jax.monitoring.register_event_duration_secs_listener(listen)
