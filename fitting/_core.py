@@ -179,7 +179,7 @@ def profile_start(objective: Objective, data: FitData, y0: dict, tol, max_steps)
 
     The loss is far from convex in the scheme's parameters: measured on curves made from
     known parameters, the joint fit from the far end of the range stopped in a local
-    minimum in 16 of 17 cases (w or (r, s) off by up to 0.87). So the parameters are
+    minimum with them more than 1e-3 off in 15 of 17 cases (by up to 0.87). So the parameters are
     first held at `objective.profile` values each (`profile_grid`) and at the start `y0`,
     the control points fitted at each (one after another in one compiled loop,
     `jax.lax.map`, which measured 3-4x faster than a `vmap` of them on CPU; each from

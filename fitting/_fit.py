@@ -114,8 +114,8 @@ def fit(
       after another in the same compiled program), and the joint fit of control points and parameters starts
       from the one of lowest loss, so it never ends with a higher loss than the fit
       with the parameters held at their starting values (the loss is not convex in
-      them: from the far end of the range, the joint fit alone stopped in a local
-      minimum on 16 of 17 curves made from known parameters). Default (None): 8 for
+      them: from the far end of the range, the joint fit alone stopped with them
+      more than 1e-3 off on 15 of 17 curves made from known parameters). Default (None): 8 for
       one parameter (9 fits before the joint one), 5 for r and s (26). 0: the joint
       fit from the start alone. At most 64 grid fits. `num_steps` counts the joint
       fit's steps only.
