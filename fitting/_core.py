@@ -45,10 +45,17 @@ def traced_settings(smoothing, tol, max_steps, dtype, default_solver: bool):
     concrete values (no compiling of scalar operations), traced as data by the jitted
     program. With the default solver (`default_solver`) `max_steps` is data too; with
     optimistix's own solvers it stays a Python int: their step
-    limit is static (`optimistix.least_squares` builds its loop from it)."""
+    limit is static (`optimistix.least_squares` builds its loop from it).
+
+    The root is of `smoothing` plus the dtype's smallest normal number: the loss holds
+    it squared, so its derivative in `smoothing` is exactly that of the loss, also at
+    `smoothing=0`, where the root's own derivative is infinite and the implicit
+    derivative was 0 x inf = NaN (issue #14). The loss changes by 1e-308 (float64) or
+    1e-38 (float32) of the smoothing term's norm: nothing."""
     xp = jnp if is_traced(smoothing) or is_traced(tol) else np
     steps = np.int32(max_steps) if default_solver else max_steps
-    return xp.sqrt(xp.asarray(smoothing, dtype)), xp.asarray(tol, dtype), steps
+    tiny = np.finfo(dtype).tiny
+    return xp.sqrt(xp.asarray(smoothing, dtype) + tiny), xp.asarray(tol, dtype), steps
 
 
 def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,

@@ -217,7 +217,11 @@ class Objective(eqx.Module):
         # independent of the sample count's effect on conditioning.
         valid_count = jnp.sum(weights > 0).astype(target.dtype)
         scaled = weights * (valid_count / jnp.sum(weights))
-        e = e * jnp.sqrt(scaled)[:, None]
+        # The root of the weight plus the smallest normal number, as for the smoothing
+        # (`_core.traced_settings`): a finite derivative at zero weights (padding, or
+        # samples switched off), where the root's own is infinite and made every
+        # weight's implicit derivative NaN.
+        e = e * jnp.sqrt(scaled + jnp.finfo(scaled.dtype).tiny)[:, None]
         held = X[self.held]
         back = foot_residual(held, target, segment, fraction, self.closed)
         band = self._band(target, segment, args.count)

@@ -596,6 +596,46 @@ def test_gradient_of_the_reported_errors(boundary):
         )
 
 
+#: Hyperparameters at the end of their range, where a square root's derivative is
+#: infinite: (name, how the fit takes the value x, the steps of the one-sided
+#: differences). `smoothing=0`, and a weight of 0 (a sample switched off; the padding
+#: to the program's bucket is such weights too, so before the fix every weight's
+#: derivative was NaN, measured 0 x inf). The weight's steps are larger: without
+#: smoothing, control points slide nearly freely and the stopping point's jitter
+#: (~1e-8 of the curve) swamps quotients at small steps.
+boundary_hyperparameters = [
+    ("smoothing", lambda x: dict(smoothing=x), (1e-5, 1e-6, 1e-7)),
+    ("zero_weight", lambda x: dict(weights=jnp.ones(60).at[7].set(x)), (1e-2, 3e-3, 1e-3)),
+]
+
+
+@pytest.mark.parametrize("name, options, steps", boundary_hyperparameters,
+                         ids=[case[0] for case in boundary_hyperparameters])
+def test_derivative_at_a_hyperparameter_boundary(name, options, steps):
+    """The fitted curve's derivative with respect to a hyperparameter at 0, the end of
+    its range (issue #14: NaN before), against second-order one-sided differences
+    (-3 f(0) + 4 f(h) - f(2 h)) / (2 h), which need no value below 0."""
+    samples, _ = _small_problem()
+    curve_direction = jnp.asarray(np.random.default_rng(12).standard_normal((8 * 2**8, 2)))
+
+    def curve_along(x):
+        result = fitting.fit(samples, js.CubicBSpline(), 8, levels=8, tol=1e-12,
+                             max_steps=400, **options(x))
+        return jnp.sum(result.curve * curve_direction)
+
+    derivative = float(jax.grad(curve_along)(0.0))
+    assert np.isfinite(derivative)
+    f0 = float(curve_along(0.0))
+    quotients = []
+    for h in steps:
+        quotients.append((-3 * f0 + 4 * float(curve_along(h)) - float(curve_along(2 * h)))
+                         / (2 * h))
+        if abs(derivative - quotients[-1]) <= 2e-3 * abs(quotients[-1]):
+            return
+    raise AssertionError(f"{name}: derivative {derivative} matches no one-sided "
+                         f"difference: {quotients}")
+
+
 def test_gradient_of_the_errors_is_finite_on_exact_data():
     # Samples exactly on a line: zero distances, where a plain norm has no derivative.
     t = np.linspace(0, 1, 60)
