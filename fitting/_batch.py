@@ -181,6 +181,7 @@ def fit_batch(
     *,
     levels: int | None = None,
     boundary: Literal["closed", "open", "clamped"] = "closed",
+    pin_ends: bool = False,
     fit_params: bool | str | tuple[str, ...] = False,
     profile: int | None = None,
     solver=None,
@@ -273,7 +274,7 @@ def fit_batch(
         t, w, n, _, names, values = prepare(
             t, scheme, n_control, levels=levels, boundary=boundary, fit_params=fit_params,
             weights=w, ordered=ordered, smoothing=smoothing, caller=f"fit_batch(targets[{i}])",
-            memory_budget=memory_budget, profile=profile,
+            memory_budget=memory_budget, profile=profile, pin_ends=pin_ends,
         )
         prepared.append((t, w))
     # One sample-count bucket for the whole batch: every item padded to it.
@@ -289,7 +290,8 @@ def fit_batch(
     max_steps = static_int(max_steps, "max_steps", minimum=1)
     tol = default_tol(stacked.dtype) if tol is None else check_tol(tol, "fit_batch")
     objective = make_objective(scheme, n=n, levels=levels, boundary=boundary, names=names,
-                               hermite=hermite, size=size, profile=values)
+                               hermite=hermite, size=size, profile=values,
+                               pin_ends=pin_ends)
     own = make_solver(solver, tol, tol, progress)
     if progress:
         _progress.begin()

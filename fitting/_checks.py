@@ -194,7 +194,7 @@ def profile_values(profile, names: tuple[str, ...], caller: str = "fit") -> int:
 
 def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights, ordered,
             smoothing, caller="fit", pad_to=0, memory_budget=DEFAULT_MEMORY_BUDGET,
-            profile=None):
+            profile=None, pin_ends=False):
     """Validate the arguments of `fit` (and each item of `fit_batch`); return the
     checked target, weights, static settings, names and profile values
     (`profile_values`)."""
@@ -223,6 +223,7 @@ def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights,
             f"`n_control={n}` is too small: {type(scheme).__name__} with "
             f"boundary={boundary!r} needs at least {need} control points."
         )
+    check_pin_ends(pin_ends, boundary, caller)
     names = fitted_names(scheme, fit_params)
     if names and not any(is_traced(leaf) for leaf in jax.tree.leaves(scheme)):
         to_unconstrained(scheme, names)  # checks the starting values (e.g. w's range)
@@ -322,3 +323,15 @@ def check_on_failure(on_failure) -> str:
     if on_failure not in ("raise", "warn", "ignore"):
         raise ValueError(f"`on_failure` must be 'raise', 'warn' or 'ignore'; got {on_failure!r}.")
     return on_failure
+
+
+def check_pin_ends(pin_ends, boundary: str, caller: str = "fit") -> bool:
+    """`pin_ends` checked: a bool, and only for curves with ends."""
+    if not isinstance(pin_ends, (bool, np.bool_)):
+        raise TypeError(f"`{caller}(pin_ends=...)` must be True or False; got {pin_ends!r}.")
+    if pin_ends and boundary == "closed":
+        raise ValueError(
+            f"`{caller}(pin_ends=True)` needs a curve with ends: pass boundary='open' or "
+            "boundary='clamped' (a closed curve has no first or last point)."
+        )
+    return bool(pin_ends)

@@ -18,6 +18,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
+import jaxsubdiv as js
 from jaxsubdiv.validation import is_traced
 
 from . import _exported, _progress
@@ -30,14 +31,42 @@ from ._solver import FootPointLevenbergMarquardt
 
 
 def make_objective(scheme, *, n: int, levels: int, boundary: str, names: tuple[str, ...],
-                   hermite: bool, size: int, profile: int = 0) -> Objective:
+                   hermite: bool, size: int, profile: int = 0,
+                   pin_ends: bool = False) -> Objective:
     """The fit's `Objective` for `n` control points and `size` samples (the bucket),
     built on the host: every field is a Python value, so equal settings compare (and
     hash) equal and select the same compiled program. `profile`: values per fitted
-    parameter of the profile before the joint fit (`profile_start`), 0 for none."""
+    parameter of the profile before the joint fit (`profile_start`), 0 for none.
+    `pin_ends`: the curve's ends on the first and last samples (`end_pivots`)."""
+    pivots = end_pivots(scheme, n, levels, boundary) if pin_ends else ()
     return Objective(n=n, levels=levels, boundary=boundary, names=tuple(names),
                      hermite=hermite, num_curve=curve_samples(scheme, n, levels, boundary),
-                     num_target=size, profile=profile if names else 0)
+                     num_target=size, profile=profile if names else 0, pivots=pivots)
+
+
+def end_pivots(scheme, n: int, levels: int, boundary: str) -> tuple[int, int]:
+    """The control points that pinned ends solve for (`Objective.pin_map`): the one of
+    largest weight in the curve's first point, and of the others the one of largest
+    weight in its last (the 2 x 2 system is then far from singular: for the cubic
+    B-spline P_1 and P_{n-2}, at weight 2/3 each). Chosen at the scheme's values, or at
+    its type's defaults when they are traced; a static choice of the program."""
+    if any(is_traced(leaf) for leaf in jax.tree.leaves(scheme)):
+        try:
+            scheme = type(scheme)()
+        except TypeError:  # no defaults (a user's mask): nothing concrete to choose from
+            raise ValueError(
+                f"`fit(pin_ends=True)` chooses two control points from the scheme's "
+                f"values, and this {type(scheme).__name__}'s are traced: pass it with "
+                "concrete values (trace the samples, not the scheme)."
+            ) from None
+    table = js.curve_stencil(scheme, n, levels, boundary=boundary)
+    first, last = np.abs(np.asarray(table.weights))[[0, -1]]
+    start, end = np.asarray(table.first)[[0, -1]]
+    width = first.size
+    head = int((start + np.argmax(first)) % n)
+    tail_weights = np.where((start + np.arange(width)) % n == head, -1.0, last)
+    tail = int((end + np.argmax(tail_weights)) % n)
+    return (head, tail)
 
 
 def traced_settings(smoothing, tol, max_steps, dtype, default_solver: bool):
@@ -109,7 +138,7 @@ def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver
                              data.root_smoothing**2)
     else:
         P0 = (init - center) / scale
-    y0 = {"control": jax.lax.stop_gradient(P0),
+    y0 = {"control": jax.lax.stop_gradient(objective.unknowns(P0)),
           "params": to_unconstrained(scheme, objective.names)}
     own_solver = solver is None
     if objective.names and objective.profile:
@@ -128,7 +157,7 @@ def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver
     rms_t2c, max_t2c = scale * errors.rms_target_to_curve, scale * errors.max_target_to_curve
     rms_c2t, max_c2t = scale * errors.rms_curve_to_target, scale * errors.max_curve_to_target
     return FitResult(
-        control_points=center + scale * sol.value["control"],
+        control_points=center + scale * objective.control_of(sol.value, scaled),
         scheme=from_unconstrained(scheme, objective.names, sol.value["params"]),
         curve=center + scale * curve,
         rms=jnp.maximum(rms_t2c, rms_c2t),
@@ -218,7 +247,7 @@ def profile_start(objective: Objective, data: FitData, y0: dict, tol, max_steps)
                          is_leaf=lambda x: x is None)
         P0 = initial_control(at.target, at.weights, basis[0], objective.boundary,
                              at.root_smoothing**2)
-        P0 = jnp.where(start, y0["control"], P0)
+        P0 = jnp.where(start, y0["control"], fixed.unknowns(P0))
         sol = optx.least_squares(fixed.residuals, solver, {"control": P0, "params": {}},
                                  args=at, max_steps=None, throw=False)
         loss = sol.stats["model"][0]

@@ -40,6 +40,7 @@ def fit(
     *,
     levels: int | None = None,
     boundary: Literal["closed", "open", "clamped"] = "closed",
+    pin_ends: bool = False,
     fit_params: bool | str | tuple[str, ...] = False,
     profile: int | None = None,
     init: Float[ArrayLike, "n d"] | None = None,
@@ -104,6 +105,13 @@ def fit(
       joined by chords, for the sample-count bucket M (see Compilation); an open curve
       has a few samples fewer at its ends).
     - `boundary`: `"closed"`, `"open"` or `"clamped"`, as in [`jaxsubdiv.refine`][].
+    - `pin_ends`: with an open or clamped `boundary`, `True` makes the curve start at
+      the first sample and end at the last (of non-zero weight) exactly, as strokes
+      are usually wanted; without it the ends are fitted like every other sample and
+      land near them (measured up to 0.5% of the size away). An exact constraint: two
+      control points (`end_pivots`) are solved from the others and the two end samples,
+      so derivatives with respect to the end samples move the ends. A `init` polygon
+      has those two points replaced.
     - `fit_params`: `False`, `True` (all of the scheme's parameters) or names such as
       `("w",)`. Fittable: `CornerCutting` r, s; `FourPoint` w (kept in
       (0, 0.19), where the scheme is C1); `SplitTweak` t. The scheme's values are the
@@ -173,7 +181,7 @@ def fit(
     target, weights, n, levels, names, profile = prepare(
         target, scheme, n_control, levels=levels, boundary=boundary, fit_params=fit_params,
         weights=weights, ordered=ordered, smoothing=smoothing, pad_to=pad_to,
-        memory_budget=memory_budget, profile=profile,
+        memory_budget=memory_budget, profile=profile, pin_ends=pin_ends,
     )
     max_steps = static_int(max_steps, "max_steps", minimum=1)
     tol = default_tol(target.dtype) if tol is None else check_tol(tol, "fit")
@@ -196,7 +204,7 @@ def fit(
     solver = make_solver(solver, tol, tol, progress is True)
     objective = make_objective(scheme, n=n, levels=levels, boundary=boundary, names=names,
                                hermite=uses_tangents(scheme, names, boundary), size=size,
-                               profile=profile)
+                               profile=profile, pin_ends=pin_ends)
     root_smoothing, tol, max_steps = traced_settings(smoothing, tol, max_steps, target.dtype,
                                                      solver is None)
     padded, weights = pad(target, weights, size)

@@ -1,6 +1,7 @@
 """The fit's least-squares objective: residuals, foot points and their linearization.
 
-Unknowns `y = {"control": P (n, d), "params": unconstrained scheme parameters}`; the
+Unknowns `y = {"control": P (n, d), "params": unconstrained scheme parameters}` (with
+pinned ends, all control points but two, from which `Objective.control` makes P); the
 problem data `args`, a [`FitData`][], all in units of the outline's size. Three groups of
 residuals:
 
@@ -113,6 +114,9 @@ class Objective(eqx.Module):
     num_target: int = eqx.field(static=True)  # target samples m (including padding)
     # Values per fitted parameter held fixed before the joint fit (`_core.profile_start`).
     profile: int = eqx.field(static=True, default=0)
+    # Open and clamped curves with pinned ends (`control`): the two control points
+    # solved from the end constraints, else (). Chosen on the host (`end_pivots`).
+    pivots: tuple[int, ...] = eqx.field(static=True, default=())
 
     @property
     def closed(self) -> bool:
@@ -145,6 +149,55 @@ class Objective(eqx.Module):
         scheme = from_unconstrained(base, self.names, y["params"])
         return scheme, *self.basis_of(scheme, target.dtype)
 
+    @property
+    def free(self) -> np.ndarray:
+        """Indices of the control points that are unknowns of the solve: all of them,
+        or all but the two `pivots` when the ends are pinned."""
+        return np.setdiff1d(np.arange(self.n), np.asarray(self.pivots, int))
+
+    def unknowns(self, P):
+        """The solve's unknown control points (`free`) of a full polygon `P`."""
+        return P[self.free] if self.pivots else P
+
+    def pin_map(self, args, A):
+        r"""The full control polygon as an affine map of the unknowns, `P = M Q + b`.
+
+        Without pinned ends, the identity. With them, the curve's first and last points
+        (rows 0 and N - 1 of its basis `A`, `C P = s`) must equal the first and last
+        samples of non-zero weight `s`: the two `pivots` are solved from those two
+        equations, $P_p = C_p^{-1} (s - C_F Q)$ for the free points $F$. An exact
+        constraint, not a penalty, and linear in the control points, so the model's
+        Hessian in `Q` is $T^T H T$ with $T = M \otimes I_d$ (`quadratic_model`).
+        Differentiable in the samples (the ends move with the first and last) and in the
+        scheme's parameters (through `A`).
+        """
+        if not self.pivots:
+            return None
+        target, weights = args.target, args.weights
+        index = jnp.arange(target.shape[0])
+        valid = weights > 0
+        first = jnp.min(jnp.where(valid, index, index.size))
+        last = jnp.max(jnp.where(valid, index, -1))
+        ends = target[jnp.stack([first, last])]  # (2, d)
+        pivots, free = np.asarray(self.pivots), self.free
+        C = A[np.array([0, A.shape[0] - 1])]  # (2, n): the curve's end points
+        solved = jnp.linalg.solve(C[:, pivots], jnp.concatenate([C[:, free], ends], 1))
+        M = jnp.zeros((self.n, free.size), A.dtype).at[free, np.arange(free.size)].set(1.0)
+        M = M.at[pivots].set(-solved[:, : free.size])
+        b = jnp.zeros((self.n, target.shape[1]), A.dtype).at[pivots].set(solved[:, free.size:])
+        return M, b
+
+    def control(self, y, args, A):
+        """The full control polygon `(n, d)` at `y` (`pin_map`), given the basis `A`."""
+        if not self.pivots:
+            return y["control"]
+        M, b = self.pin_map(args, A)
+        return M @ y["control"] + b
+
+    def control_of(self, y, args):
+        """`control` with the basis at `y`'s scheme parameters."""
+        return self.control(y, args, self.basis(y, args)[1])
+
     def feet(self, y, args, previous=None):
         """Foot points: each sample's curve position and each held curve sample's
         (segment, fraction) on the target polyline. Not differentiated.
@@ -153,7 +206,7 @@ class Objective(eqx.Module):
         its previous position first (`_curve.track`), globally only where that fails."""
         target, weights = args.target, args.weights
         _, A, V, _ = self.basis(y, args)
-        P = y["control"]
+        P = self.control(y, args, A)
         X = A @ P
         tau = locate(target, X, None if V is None else V @ P, self.closed,
                      coarse=max(1, min(8, self.num_curve // 64)),
@@ -197,7 +250,7 @@ class Objective(eqx.Module):
         target, weights = args.target, args.weights
         tau, segment, fraction = feet
         _, A, V, _ = self.basis(y, args)
-        P = y["control"]
+        P = self.control(y, args, A)
         X = A @ P
         VX = None if V is None else V @ P
         point, slope, bend = evaluate(X, VX, tau, self.closed, order=2)
@@ -268,7 +321,7 @@ class Objective(eqx.Module):
         """
         target, valid = data.target, data.weights > 0
         _, A, V, _ = self.basis(y, data)
-        P = y["control"]
+        P = self.control(y, data, A)
         X = A @ P
         VX = None if V is None else V @ P
         if self.hermite:
@@ -352,7 +405,7 @@ class Objective(eqx.Module):
         smoothing = args.root_smoothing**2
         tau, segment, fraction = feet
         _, A, V, banded = self.basis(y, args)
-        P = y["control"]
+        P = self.control(y, args, A)
         m, d = target.shape
         n, dtype = self.n, target.dtype
         eye = jnp.eye(d, dtype=dtype)
@@ -432,6 +485,9 @@ class Objective(eqx.Module):
         loss += (smoothing / n) * jnp.sum((D @ P) ** 2)
         gradient += (smoothing / n) * (D.T @ (D @ P)).reshape(-1)
         hessian += (smoothing / n) * jnp.kron(D.T @ D, eye)
+        if self.pivots:  # the chain rule through the linear pin map P = M Q + b
+            T = jnp.kron(self.pin_map(args, A)[0], eye)
+            gradient, hessian = T.T @ gradient, T.T @ hessian @ T
         if self.names:
             gradient, hessian = self._parameter_blocks(y, args, feet, hessian)
         return loss, gradient, hessian

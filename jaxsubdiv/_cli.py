@@ -385,6 +385,9 @@ def _fit(args) -> int:
         raise ValueError(f"--n must be at least 1, got {args.n}")
     if args.max_steps < 1:
         raise ValueError(f"--max-steps must be at least 1, got {args.max_steps}")
+    if args.pin_ends and args.boundary == "closed":
+        raise ValueError("--pin-ends: a closed curve has no ends; use --boundary open or "
+                         "clamped (or leave --boundary out: open contours are fitted open)")
     _check_output(args.output, ("json", "csv", "txt", "npy", "npz", "svg"), "-o")
     _check_output(args.svg, ("svg",), "--svg")
     _check_output(args.plot, _picture_types, "--plot")
@@ -420,21 +423,22 @@ def _fit(args) -> int:
         f"to {_source(args)}: {count} contour{'s' if count > 1 else ''}"
         + (" (scheme parameters fitted too)" if args.fit_params else "")
     )
-    results, sizes = [], []
+    results, sizes, pinned = [], [], []
     # Every contour padded to the longest one's sample count: one compiled program.
     pad_to = max(len(outline.points) for outline in outlines)
     for i, outline in enumerate(outlines):
         boundary = args.boundary or ("closed" if outline.closed else "open")
+        pin_ends = args.pin_ends and boundary != "closed"
         size = _size(outline.points)
         print(
-            f"contour {i + 1} of {count}: {len(outline.points)} samples, {boundary}, "
-            f"size {size:.3g}"
+            f"contour {i + 1} of {count}: {len(outline.points)} samples, {boundary}"
+            f"{' (ends pinned)' if pin_ends else ''}, size {size:.3g}"
         )
         sys.stdout.flush()  # before the progress line on stderr
         start, compiles = time.perf_counter(), _compilations()
         result = fitting.fit(
             outline.points, scheme, args.n, levels=args.levels, boundary=boundary,
-            fit_params=bool(args.fit_params), max_steps=args.max_steps,
+            pin_ends=pin_ends, fit_params=bool(args.fit_params), max_steps=args.max_steps,
             progress=False if args.quiet else "time", on_failure="ignore", pad_to=pad_to,
         )
         result = jax.block_until_ready(result)
@@ -445,6 +449,7 @@ def _fit(args) -> int:
         _print_errors(result, size, elapsed, compiles())
         results.append(result)
         sizes.append(size)
+        pinned.append(pin_ends)
 
     if args.output and args.output.lower().endswith(".json"):
         for i, (result, outline, size) in enumerate(zip(results, outlines, sizes)):
@@ -456,6 +461,7 @@ def _fit(args) -> int:
                 "contours": count,
                 "samples": len(outline.points),
                 "size": size,
+                "pin_ends": pinned[i],
             }
             js.io.write_result_json(path, result, info=info)
             print(f"wrote {path}")
@@ -532,6 +538,9 @@ def _add_fit(sub):
                      "(default: enough for max(1024, 4 x samples) points)")
     fit.add_argument("--boundary", choices=["closed", "open", "clamped"],
                      help="default: closed for closed contours, open otherwise")
+    fit.add_argument("--pin-ends", action="store_true",
+                     help="open and clamped contours start at their first sample and end "
+                     "at their last, exactly (closed contours have no ends)")
     fit.add_argument("--max-steps", type=int, default=500,
                      help="solver step limit per contour (default: 500)")
     fit.add_argument("--output", "-o",

@@ -20,6 +20,7 @@ from helpers import (
     periodic_bspline,
     svg_bezier_paths,
 )
+from scipy.interpolate import BSpline
 
 import jaxsubdiv as js
 from jaxsubdiv._cli import main
@@ -164,6 +165,27 @@ def test_fit_glyph_with_a_hole_json_reproduces_the_curve(capsys, tmp_path):
         assert np.abs(points - expected).max() < 1e-12
         assert _check_bezier_svg(tmp_path / f"o-{i + 1}.svg", control, 3) < 1e-9
     assert _pixels_vary(tmp_path / "o.png")
+
+
+def test_fit_open_stroke_with_pinned_ends(capsys, tmp_path):
+    """An open CSV stroke (`# closed: false`) with --pin-ends: the saved control points'
+    curve (scipy's open cubic B-spline on its knots' valid interval) starts at the
+    first sample and ends at the last, and the JSON records the pin."""
+    t = np.linspace(0, 1, 150)
+    stroke = np.stack([3 * t, np.sin(5 * t) + 0.01 * np.cos(40 * t)], 1)
+    source = tmp_path / "stroke.csv"
+    rows = "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in stroke)
+    source.write_text("# closed: false\n" + rows)
+    status, out, err = cli(capsys, "fit", source, "--n", 10, "--pin-ends", "--quiet",
+                           "-o", tmp_path / "stroke.json")
+    assert status == 0, err
+    assert "contour 1 of 1: 150 samples, open (ends pinned)" in out
+    saved = json.loads((tmp_path / "stroke.json").read_text())
+    assert saved["boundary"] == "open" and saved["info"]["pin_ends"] is True
+    control = np.array(saved["control_points"])
+    spline = BSpline(np.arange(len(control) + 4, dtype=float), control, 3)
+    np.testing.assert_allclose(spline([3.0, len(control)]), stroke[[0, -1]], rtol=0,
+                               atol=1e-12)
 
 
 def test_fit_that_does_not_converge_exits_1_and_says_which(capsys, tmp_path):
@@ -415,6 +437,7 @@ def test_bad_input_is_one_line_and_status_2(capsys, tmp_path):
         ("refine", *shape, "--scheme", "chaikin", "--w", 0.1),  # impossible combinations
         ("fit", *shape, "--scheme", "cubic-bspline", "--r", 0.2),
         ("fit", *shape, "--fit-params"),  # cubic B-spline has no parameters
+        ("fit", *shape, "--boundary", "closed", "--pin-ends"),  # a closed curve has no ends
         ("fit", ok, "--n", 8),  # more control points than the samples allow
         ("fit", *shape, "--samples", 20, "--n", 16),
         ("fit", ok, *shape),  # two inputs
