@@ -108,10 +108,11 @@ def fit(
     - `pin_ends`: with an open or clamped `boundary`, `True` makes the curve start at
       the first sample and end at the last (of non-zero weight) exactly, as strokes
       are usually wanted; without it the ends are fitted like every other sample and
-      land near them (measured up to 0.5% of the size away). An exact constraint: two
-      control points (`end_pivots`) are solved from the others and the two end samples,
-      so derivatives with respect to the end samples move the ends. A `init` polygon
-      has those two points replaced.
+      land near them (on 30 glyph strokes up to 3.5% of the size away,
+      `benchmarks/results/fit_ends.md`). An exact constraint on the curve at `levels`:
+      two control points (`_core.end_pivots`) are solved from the others and the two end
+      samples, so derivatives with respect to the end samples move the ends. An `init`
+      polygon has those two points replaced. See `docs/fitting.md`, "Open strokes".
     - `fit_params`: `False`, `True` (all of the scheme's parameters) or names such as
       `("w",)`. Fittable: `CornerCutting` r, s; `FourPoint` w (kept in
       (0, 0.19), where the scheme is C1); `SplitTweak` t. The scheme's values are the

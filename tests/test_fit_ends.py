@@ -52,7 +52,7 @@ def test_pinned_ends_are_the_end_samples(scheme, boundary, fit_params):
                              weights=weights, pin_ends=pin, on_failure="ignore")
         assert np.isfinite(float(result.rms))
         fitted = result.scheme
-        polygon = js.refine(result.control_points, fitted, 6, boundary=boundary)
+        polygon = js.refine(result.control_points, fitted, result.levels, boundary=boundary)
         curve = np.asarray(js.limit_points(polygon, fitted, boundary=boundary))
         ends[pin] = np.linalg.norm(curve[[0, -1]] - samples[[1, -1]], axis=-1) / size
         if pin:
