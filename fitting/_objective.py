@@ -63,6 +63,13 @@ BACK_WEIGHT = 0.1
 REFINE_MAX = 64
 
 
+def end_samples(weights):
+    """Indices of the first and last samples of non-zero weight (an open curve's ends)."""
+    index = jnp.arange(weights.shape[0])
+    valid = weights > 0
+    return jnp.min(jnp.where(valid, index, index.size)), jnp.max(jnp.where(valid, index, -1))
+
+
 class FitData(eqx.Module):
     """The data of one fit: arrays, traced (new values reuse the compiled program).
 
@@ -173,12 +180,8 @@ class Objective(eqx.Module):
         """
         if not self.pivots:
             return None
-        target, weights = args.target, args.weights
-        index = jnp.arange(target.shape[0])
-        valid = weights > 0
-        first = jnp.min(jnp.where(valid, index, index.size))
-        last = jnp.max(jnp.where(valid, index, -1))
-        ends = target[jnp.stack([first, last])]  # (2, d)
+        target = args.target
+        ends = target[jnp.stack(end_samples(args.weights))]  # (2, d)
         pivots, free = np.asarray(self.pivots), self.free
         C = A[np.array([0, A.shape[0] - 1])]  # (2, n): the curve's end points
         solved = jnp.linalg.solve(C[:, pivots], jnp.concatenate([C[:, free], ends], 1))
@@ -226,9 +229,7 @@ class Objective(eqx.Module):
         # An open curve must start and end where the data do: the first and last
         # (weighted) samples go to its end points, and its end points to them.
         index = jnp.arange(self.num_target)
-        valid = weights > 0
-        first = jnp.min(jnp.where(valid, index, index.size))
-        last = jnp.max(jnp.where(valid, index, -1))
+        first, last = end_samples(weights)
         tau = jnp.where(index <= first, 0.0, jnp.where(index >= last, self.num_curve - 1.0, tau))
         held = jnp.arange(segment.shape[0])
         end = segment.shape[0] - 1

@@ -118,12 +118,13 @@ def resample_closed(polygon, m, offset=0.5):
     return np.stack([np.interp(t, s, P[:, k]) for k in range(P.shape[1])], -1)
 
 
-def glyph_outline(char, m=400):
-    """Outer contour of a DejaVu Sans glyph (matplotlib's bundled font), resampled."""
+def glyph_outline(char, m=400, family="DejaVu Sans"):
+    """Outer contour of a glyph of a font matplotlib ships (DejaVu Sans by default),
+    resampled."""
     from matplotlib.font_manager import FontProperties
     from matplotlib.textpath import TextPath
 
-    path = TextPath((0, 0), char, size=1.0, prop=FontProperties(family="DejaVu Sans"))
+    path = TextPath((0, 0), char, size=1.0, prop=FontProperties(family=family))
     polygons = path.to_polygons(closed_only=True)
     outer = max(polygons, key=lambda p: np.ptp(p, axis=0).prod())
     if np.allclose(outer[0], outer[-1]):
