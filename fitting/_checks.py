@@ -307,6 +307,9 @@ def prepare(target, scheme, n_control, *, levels, boundary, fit_params, weights,
                 f"`{caller}(weights=...)` leaves {np.count_nonzero(values)} samples with "
                 f"non-zero weight for {unknowns} unknowns; give at least as many."
             )
+        # Relative weights, divided on the host: inside the compiled program the CPU
+        # flushes subnormal numbers to zero, and weights of 1e-320 were all zero there.
+        weights = values / values.max()
     if np.ndim(smoothing) != 0:
         raise ValueError(
             f"`{caller}(smoothing=...)` must be a scalar; got shape {np.shape(smoothing)}."

@@ -109,6 +109,11 @@ def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver
                             jnp.where(outline, data.weights[order], data.weights)))
     target, weights, scheme = data.target, data.weights, data.scheme
     dtype = target.dtype
+    # Weights are relative: divided by the largest first, so that normalising them to
+    # mean 1 (`Objective.residuals_at`) neither overflows their sum (1e307 each) nor
+    # the reciprocal of their mean (1e-320 each); both gave NaN before (issue #14).
+    # Exact for derivatives too: the fit does not change when all weights scale.
+    weights = weights / jnp.max(weights)
     # Samples with zero weight (including the padding) are ignored.
     valid = weights > 0
     valid_count = jnp.sum(valid)

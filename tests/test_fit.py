@@ -906,6 +906,22 @@ def test_fits_at_any_finite_scale(scale):
                                    float(getattr(reference, name)), rtol=1e-5, err_msg=name)
 
 
+@pytest.mark.parametrize("scale", [1e300, 1e307, 1e-300, 1e-320])
+def test_weights_at_any_finite_scale(scale):
+    """Weights are relative: times 1e307 (their sum overflowed) or 1e-320 (subnormal
+    numbers, which the compiled program flushed to zero) they give the fit of the same
+    weights at unit scale (before: NaN control points, status nonfinite, rms 0)."""
+    weights = np.linspace(1.0, 2.0, 100)
+    reference = fitting.fit(blob(100), js.CubicBSpline(), 8, weights=weights, tol=1e-10)
+    scaled = fitting.fit(blob(100), js.CubicBSpline(), 8, weights=weights * scale, tol=1e-10)
+    assert bool(scaled.converged)
+    # 1e-320 keeps only 3-4 digits (a multiple of 4.9e-324): other weights, by 2.5e-4.
+    atol = 1e-4 if scale < np.finfo(float).tiny else 1e-6
+    np.testing.assert_allclose(np.asarray(scaled.control_points), reference.control_points,
+                               atol=atol)
+    np.testing.assert_allclose(float(scaled.rms), float(reference.rms), rtol=10 * atol)
+
+
 def test_repeated_samples_are_fine():
     target = np.repeat(blob(100), 2, axis=0)
     result = fitting.fit(target, js.CubicBSpline(), 8)
