@@ -18,8 +18,9 @@ from pathlib import Path
 # Scheme names, their parameters (the --r/--s/--w/--t/--degree options), defaults, ranges
 # and help come from the scheme registry's declarations, read without importing JAX so
 # that --help and usage errors stay fast (`jaxsubdiv._scheme.registry.declarations`).
-# Points per contour for a built-in shape's polygon when it is fitted (it is sampled
-# along its edges; refining uses the polygon itself).
+# Points per contour for a built-in shape's polygon, and an SVG drawing's straight-line
+# contours, when they are fitted (sampled along their edges: a polygon's corners alone
+# are too few samples; refining uses the polygon itself).
 _SHAPE_SAMPLES = 400
 
 
@@ -142,7 +143,10 @@ def _add_input_options(parser, shape_samples: str):
 
 
 def _read_inputs(args, shape_samples: int | None = None):
-    """The outlines of INPUT, --shape or --text (exactly one of them)."""
+    """The outlines of INPUT, --shape or --text (exactly one of them). `shape_samples`:
+    points per contour for a built-in shape and for an SVG file's contours when
+    --samples is not given (None: the shape's polygon, and an SVG's straight-line
+    contours as their corners)."""
     js = _js()
     given = [
         name
@@ -166,7 +170,10 @@ def _read_inputs(args, shape_samples: int | None = None):
         return [js.io.Outline(points=points, closed=True)]
     if args.text is not None:
         return js.io.read_outlines(text=args.text, font=args.font, samples=args.samples)
-    return js.io.read_outlines(args.input, samples=args.samples)
+    samples = args.samples
+    if samples is None and str(args.input).lower().endswith(".svg"):
+        samples = shape_samples
+    return js.io.read_outlines(args.input, samples=samples)
 
 
 def _source(args) -> str:

@@ -115,7 +115,9 @@ def read_outlines(
         - SVG: every `<path>` (all commands of SVG 1.1, absolute and relative;
           arcs by the specification's endpoint-to-center conversion), `<polygon>` and
           `<polyline>`, with their `transform`s; one outline per subpath. A subpath is
-          closed if it ends with `Z` or returns exactly to its start.
+          closed if it ends with `Z` or returns exactly to its start. Shapes that draw
+          nothing (no fill and no stroke, transparent, hidden, `display: none`; own or
+          inherited attributes and `style`, not `<style>` sheets) are skipped.
         - PNG: the outer contours of a silhouette (see `threshold`), in pixels.
     - `kind`: the format, overriding the extension.
     - `samples`: points per outline, spaced equally by arc length. Curved SVG

@@ -188,6 +188,22 @@ def test_fit_open_stroke_with_pinned_ends(capsys, tmp_path):
                                atol=1e-12)
 
 
+def test_fit_a_matplotlib_icon_by_default(capsys):
+    """matplotlib's home icon (a file nobody here drew): its transparent background
+    rectangle is skipped and its straight-line contours are sampled along their edges,
+    so the default fit works (issue #18: it stopped at 'its 4 points are fewer than the
+    64 unknowns'). Two contours, the house's outer and inner outline, each converged
+    within 1e-3 of its size (RMS)."""
+    import matplotlib
+
+    icon = Path(matplotlib.get_data_path()) / "images" / "home.svg"
+    status, out, err = cli(capsys, "fit", icon, "--quiet")
+    assert status == 0, err
+    assert "2 contours" in out and out.count("status     converged") == 2
+    relative = [float(v) for v in re.findall(r"rms error +\S+ \((\S+) of the size", out)]
+    assert len(relative) == 2 and max(relative) < 1e-3, relative
+
+
 def test_fit_that_does_not_converge_exits_1_and_says_which(capsys, tmp_path):
     source = tmp_path / "circle.npy"
     np.save(source, _circle(100))

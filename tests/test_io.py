@@ -265,6 +265,31 @@ def test_svg_polygons_polylines_and_transforms(tmp_path):
     np.testing.assert_allclose(outlines[3].points, [[5, -6], [6, -6]])
 
 
+def test_svg_shapes_that_draw_nothing_are_skipped(tmp_path):
+    """Shapes a renderer would not draw are not outlines (issue #18: matplotlib's icons
+    start with a transparent background rectangle, which made every icon fail); shapes
+    with a visible fill or stroke are kept, in document order."""
+    body = (
+        '<path d="M 0 0 L 72 0 L 72 72 Z" style="fill:none;opacity:0;"/>'  # the icons'
+        '<path d="M 0 0 L 1 0 L 1 1 Z" fill="none"/>'  # no fill, no stroke
+        '<path d="M 0 0 L 2 0 L 2 2 Z" fill="none" stroke="black"/>'  # a stroke: kept
+        '<g style="display:none"><path d="M 0 0 L 3 0 L 3 3 Z"/></g>'  # hidden subtree
+        '<g fill="none"><polygon points="0,0 4,0 4,4"/>'  # inherits no fill
+        '<polygon points="0,0 5,0 5,5" fill="red"/></g>'  # overrides it: kept
+        '<polygon points="0,0 6,0 6,6" visibility="hidden"/>'
+        '<polygon points="0,0 7,0 7,7" style="fill-opacity:0"/>'
+        '<polygon points="0,0 8,0 8,8" stroke="blue" stroke-width="0" fill="none"/>'
+        '<g opacity="0"><polygon points="0,0 9,0 9,9"/></g>'
+        '<polygon points="0,0 10,0 10,10"/>'  # the initial fill is black: kept
+    )
+    outlines = jio.read_outlines(_write(tmp_path, "icon.svg", _svg(body)))
+    assert [float(np.ptp(o.points[:, 0])) for o in outlines] == [2.0, 5.0, 10.0]
+    nothing = _svg('<path d="M 0 0 L 1 0 L 1 1 Z" style="fill:none"/>'
+                   '<g display="none"><path d="M 0 0 L 2 0 L 2 2 Z"/></g>')
+    with pytest.raises(ValueError, match=r"that draws anything \(2 shapes .* skipped\)"):
+        jio.read_outlines(_write(tmp_path, "blank.svg", nothing))
+
+
 # --- curve SVG -----------------------------------------------------------------------
 
 

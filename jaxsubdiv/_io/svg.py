@@ -332,17 +332,67 @@ def _points_attribute(text: str, element: str, path) -> np.ndarray:
     return np.array(values).reshape(-1, 2)
 
 
-def _contours(root, matrix: np.ndarray, path, found: list) -> None:
-    """The drawable contours under `root`, in document order. The tree is walked with a
-    stack, not by recursion, so any nesting depth works."""
-    stack = [(root, matrix)]
+#: Presentation properties that decide whether an element draws anything: inherited
+#: ones (SVG 1.1: fill, stroke, their opacities, stroke-width, visibility) and the two
+#: that hide a whole subtree (display: none; opacity: 0).
+_INHERITED = ("fill", "fill-opacity", "stroke", "stroke-opacity", "stroke-width", "visibility")
+#: The initial values (SVG 1.1, "Painting"): filled black, no stroke.
+_INITIAL = {"fill": "black", "fill-opacity": "1", "stroke": "none", "stroke-opacity": "1",
+            "stroke-width": "1", "visibility": "visible"}
+
+
+def _properties(element) -> dict:
+    """The element's presentation attributes, overridden by its `style` declarations."""
+    found = {name: element.get(name) for name in (*_INHERITED, "display", "opacity")
+             if element.get(name) is not None}
+    for declaration in (element.get("style") or "").split(";"):
+        name, colon, value = declaration.partition(":")
+        if colon:
+            found[name.strip()] = value.replace("!important", "").strip()
+    return found
+
+
+def _zero(value: str) -> bool:
+    """Whether an opacity or width is zero (unparsable values are taken as drawn)."""
+    try:
+        return float(value.strip().rstrip("%").removesuffix("px")) == 0
+    except ValueError:
+        return False
+
+
+def _draws(style: dict) -> bool:
+    """Whether an element with these (inherited and own) properties paints anything:
+    a visible fill or stroke that is not transparent."""
+    if style["visibility"] in ("hidden", "collapse"):
+        return False
+    fill = style["fill"] != "none" and not _zero(style["fill-opacity"])
+    stroke = (style["stroke"] != "none" and not _zero(style["stroke-opacity"])
+              and not _zero(style["stroke-width"]))
+    return fill or stroke
+
+
+def _contours(root, matrix: np.ndarray, path, found: list) -> int:
+    """The drawable contours under `root`, in document order; returns how many shapes
+    were skipped because they draw nothing (`display: none`, `opacity: 0`, hidden, no
+    fill and no stroke: e.g. the transparent background rectangle of matplotlib's
+    icons, which is no outline anyone can see). The tree is walked with a stack, not
+    by recursion, so any nesting depth works."""
+    stack = [(root, matrix, _INITIAL)]
+    skipped = 0
     while stack:
-        element, matrix = stack.pop()
+        element, matrix, inherited = stack.pop()
         tag = element.tag.rsplit("}", 1)[-1] if isinstance(element.tag, str) else ""
         if tag in _SKIP:
             continue
+        own = _properties(element)
+        if own.get("display") == "none" or _zero(own.get("opacity", "1")):
+            skipped += 1
+            continue
+        style = {**inherited, **{k: v for k, v in own.items() if k in _INHERITED}}
         matrix = matrix @ parse_transform(element.get("transform"), path)
-        if tag == "path" and (element.get("d") or "").strip():
+        if tag in ("path", "polygon", "polyline") and not _draws(style):
+            skipped += 1
+        elif tag == "path" and (element.get("d") or "").strip():
             for segments, closed in parse_path(element.get("d"), path):
                 if (
                     not closed
@@ -361,15 +411,19 @@ def _contours(root, matrix: np.ndarray, path, found: list) -> None:
             found.append((segments, closed, matrix))
         if len(found) > common.MAX_CONTOURS:
             check_contours(path, len(found), counted=False)
-        stack.extend((child, matrix) for child in reversed(list(element)))
+        stack.extend((child, matrix, style) for child in reversed(list(element)))
+    return skipped
 
 
 _FLIP = np.diag([1.0, -1.0, 1.0])
 
 
 def read_svg(path, samples) -> list[Outline]:
-    """Every `<path>`, `<polygon>` and `<polyline>` of an SVG file, one outline per
-    subpath, in document order, with transforms applied and y pointing up."""
+    """Every visible `<path>`, `<polygon>` and `<polyline>` of an SVG file, one outline
+    per subpath, in document order, with transforms applied and y pointing up. Shapes
+    that draw nothing (no fill and no stroke, transparent, hidden, `display: none`,
+    from their own attributes and `style` or inherited from their groups) are skipped,
+    as a renderer would; CSS in `<style>` sheets is not read."""
     try:
         root = ET.fromstring(read_bytes(path))
     except ET.ParseError as e:
@@ -380,10 +434,12 @@ def read_svg(path, samples) -> list[Outline]:
         )
     found = []
     with np.errstate(all="ignore"):  # overflow is checked on the sampled points
-        _contours(root, _FLIP, path, found)
+        skipped = _contours(root, _FLIP, path, found)
     if not found:
         raise fail(
-            path, "has no contours: no <path>, <polygon> or <polyline> with points to read."
+            path, "has no contours: no <path>, <polygon> or <polyline> with points to read"
+            + (f" that draws anything ({skipped} shapes with no visible fill or stroke, or "
+               "hidden, were skipped)." if skipped else ".")
         )
     check_points(
         path,
