@@ -619,6 +619,10 @@ def _gallery(args) -> int:
     js = _js()
     from .plot import plot_levels
 
+    if args.max_points < 1:
+        raise ValueError(f"--max-points must be at least 1, got {args.max_points}")
+    if args.dpi < 1:
+        raise ValueError(f"--dpi must be at least 1, got {args.dpi}")
     names = js.shapes.names()
     shapes = names
     if args.shapes:

@@ -470,6 +470,8 @@ def test_bad_input_is_one_line_and_status_2(capsys, tmp_path):
         ("gallery", "-o", tmp_path / "g", "--shapes", "teapot"),
         ("gallery", "-o", tmp_path / "g", "--levels", "0,x"),
         ("gallery",),  # -o is required
+        ("gallery", "-o", tmp_path / "g", "--max-points", -1),
+        ("gallery", "-o", tmp_path / "g", "--dpi", 0),
         ("demo", "--n", 64, "--samples", 100, "-o", tmp_path / "x.png"),
         ("demo", "--text", " ", "-o", tmp_path / "x.png"),
     ]
