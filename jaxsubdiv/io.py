@@ -118,7 +118,7 @@ def read_outlines(
           closed if it ends with `Z` or returns exactly to its start. Shapes that draw
           nothing (no fill and no stroke, transparent, hidden, `display: none`; own or
           inherited attributes and `style`, not `<style>` sheets) are skipped.
-        - PNG: the outer contours of a silhouette (see `threshold`), in pixels.
+        - PNG: the contours of a silhouette and its holes (see `threshold`), in pixels.
     - `kind`: the format, overriding the extension.
     - `samples`: points per outline, spaced equally by arc length. Curved SVG
       segments and glyphs are sampled exactly on the curve (default

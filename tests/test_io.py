@@ -442,7 +442,9 @@ def test_png_disk(tmp_path, foreground, background):
     assert outline.closed and len(outline.points) > 50
 
 
-def test_png_ring_keeps_outer_contour_and_alpha(tmp_path):
+def test_png_ring_keeps_its_hole_and_alpha(tmp_path):
+    """A ring (radii 20 and 8) in the alpha channel: the outer contour, clockwise, then
+    the hole, counter-clockwise, as a glyph's (issue #18: the hole was dropped)."""
     ring = _disk_image(50, 50, (24.5, 24.5), 20, 1.0, 0.0) - _disk_image(
         50, 50, (24.5, 24.5), 8, 1.0, 0.0
     )
@@ -450,10 +452,12 @@ def test_png_ring_keeps_outer_contour_and_alpha(tmp_path):
     rgba[..., 3] = ring  # black ink on a transparent background
     path = tmp_path / "ring.png"
     matplotlib.image.imsave(path, rgba)
-    (outline,) = jio.read_outlines(path, samples=64)
-    radius = np.hypot(outline.points[:, 0] - 24.5, outline.points[:, 1] - 24.5)
-    assert np.max(np.abs(radius - 20)) < 1.0
-    assert outline.points.shape == (64, 2)
+    outer, hole = jio.read_outlines(path, samples=64)
+    for outline, expected, sign in ((outer, 20, -1), (hole, 8, 1)):
+        radius = np.hypot(outline.points[:, 0] - 24.5, outline.points[:, 1] - 24.5)
+        assert np.max(np.abs(radius - expected)) < 1.0
+        assert outline.points.shape == (64, 2) and outline.closed
+        assert np.sign(_signed_area(outline.points)) == sign
 
 
 # --- result JSON ---------------------------------------------------------------------

@@ -121,15 +121,16 @@ def _png_size(path, data: bytes) -> tuple[int, int]:
 
 
 def read_image(path, threshold: float = 0.5, samples=None) -> list[Outline]:
-    """The outer contours of the silhouette in a PNG image, in pixel units, y up.
+    """The contours of the silhouette in a PNG image, its holes too, in pixel units, y up.
 
     The image is reduced to one channel: its alpha channel if that is not constant,
     else its luminance (0.299 R + 0.587 G + 0.114 B). The background is the side of
     `threshold` that most border pixels are on; the contours are the level-`threshold`
     lines of that channel (`contourpy`, matplotlib's contouring engine, with linear
-    interpolation between pixel centers), and the outer ones are kept: holes are
-    dropped, as are specks with less than 1% of the largest area. Pixel (row r,
-    column c) of an image of height H is the point (c, H - 1 - r).
+    interpolation between pixel centers): the outer contours, clockwise, then the
+    holes, counter-clockwise (as glyphs come from their fonts); specks with less than
+    1% of the largest area are dropped. Pixel (row r, column c) of an image of height
+    H is the point (c, H - 1 - r).
 
     Limits: an image of more than `MAX_PIXELS` pixels is refused from its header,
     before it is decoded; one with more than `MAX_CONTOURS` contours of at least 0.5%
@@ -212,7 +213,11 @@ def read_image(path, threshold: float = 0.5, samples=None) -> list[Outline]:
     # not cross), so it is at least as large: the loops of the kept sizes are nested only
     # in each other, and their nesting depths need no other loop.
     big = [p for p, a in zip(loops, area) if a >= 0.01 * area.max()]
-    keep = [p for p, d in zip(big, _depths(big)) if d % 2 == 0]
+    depth = _depths(big)
+    # Outer contours clockwise and holes counter-clockwise (y up), as glyphs come from
+    # their fonts (TrueType); outer contours first, then the holes.
+    keep = [p if (_area(p) < 0) == (d % 2 == 0) else p[::-1]
+            for even in (True, False) for p, d in zip(big, depth) if (d % 2 == 0) == even]
     check_points(path, len(keep) * samples if samples else sum(len(p) for p in keep))
     return [
         make_outline(
