@@ -80,7 +80,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     parser.add_argument("--samples", type=int,
                         help="resample the outline to this many points by arc length")
     parser.add_argument("--outline", type=int,
-                        help="which outline of a file with several (default: the largest)")
+                        help="which outline of a file with several, counted from 1 as "
+                        "`jaxsubdiv fit` reports contours (default: the largest)")
     parser.add_argument("--open", action="store_true",
                         help="edit an open polygon (the curves end at its end points)")
     parser.add_argument("--curves", type=_curves, default=("cubic-bspline", "four-point", "jarek"),
@@ -151,16 +152,19 @@ def run(args) -> int:
     if args.shape is not None:
         outlines = [js.io.Outline(points=np.asarray(js.shapes.get(args.shape)), closed=True)]
     elif args.input is not None:
-        outlines = js.io.read_outlines(args.input, samples=args.samples)
+        samples = args.samples
+        if samples is None and args.fit and str(args.input).lower().endswith(".svg"):
+            samples = 400  # as `jaxsubdiv fit`: a straight-line contour's corners are too few
+        outlines = js.io.read_outlines(args.input, samples=samples)
     else:
         outlines = [js.io.Outline(points=np.asarray(js.shapes.get("star")), closed=True)]
-    if args.outline is not None and not 0 <= args.outline < len(outlines):
+    if args.outline is not None and not 1 <= args.outline <= len(outlines):
         raise ValueError(
-            f"--outline must be in [0, {len(outlines) - 1}] (the input has {len(outlines)} "
-            f"outlines), got {args.outline}"
+            f"--outline must be in [1, {len(outlines)}] (the input has {len(outlines)} "
+            f"outlines, counted from 1), got {args.outline}"
         )
     if args.outline is not None:
-        chosen = outlines[args.outline]
+        chosen = outlines[args.outline - 1]
     else:
         chosen = max(outlines, key=lambda o: float(np.prod(np.ptp(o.points, axis=0))))
     if args.open:

@@ -726,3 +726,24 @@ def test_schemes_map_to_the_editor_curves_that_draw_them():
     assert [c.label for c in editor_module.CURVES.values()] == [
         "cubic B-spline", "four-point", "Jarek (split-tweak t)", "Chaikin", "corner cutting (r, s)"
     ]
+
+
+def test_outline_is_counted_from_1(tmp_path, capsys):
+    """--outline K picks the K-th contour counted from 1, as `jaxsubdiv fit` reports
+    them (issue #18: it counted from 0); 0 and K past the last are errors naming the
+    range."""
+    svg = tmp_path / "two.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg">'
+                   '<polygon points="0,0 4,0 4,4 0,4"/>'
+                   '<polygon points="10,0 14,0 15,2 14,4 10,4 9,2"/></svg>')
+    parser = argparse.ArgumentParser()
+    add_parser(parser.add_subparsers(dest="command"))
+    png = tmp_path / "two.png"
+    for k, count in ((1, 4), (2, 6)):
+        args = parser.parse_args(["edit", str(svg), "--outline", str(k), "--png", str(png)])
+        assert run(args) == 0
+        assert f"{count} control points, closed" in capsys.readouterr().out
+    for k in (0, 3):
+        args = parser.parse_args(["edit", str(svg), "--outline", str(k), "--png", str(png)])
+        with pytest.raises(ValueError, match=r"--outline must be in \[1, 2\]"):
+            run(args)
