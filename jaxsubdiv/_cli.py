@@ -494,16 +494,29 @@ def _fit(args) -> int:
         figure = _new_figure((6.5, 6))
         ax = figure.add_subplot()
         top = max(float(r.max_target_to_curve) for r in results)
-        for i, (result, outline) in enumerate(zip(results, outlines)):
-            plot_fit(result, outline.points, ax, colorbar=i == count - 1, vmax=top or None,
-                     legend=i == 0)
+        drawn = [plot_fit(result, outline.points, ax, colorbar=i == count - 1,
+                          vmax=top or None, legend=False)
+                 for i, (result, outline) in enumerate(zip(results, outlines))]
+        # One legend for all contours, below the axes (it covers no data there).
+        many = count > 1
+        ax.legend(
+            [drawn[0].curve, drawn[0].control, drawn[0].samples],
+            ["limit curves" if many else "limit curve",
+             f"{args.n} control points" + (" per contour" if many else ""),
+             f"{sum(len(o.points) for o in outlines)} samples"
+             + (f" in {count} contours" if many else "")],
+            loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=3, fontsize=7,
+            frameon=False,
+        )
         worst = max(float(r.rms) / s for r, s in zip(results, sizes))
         largest = max(float(r.max_error) / s for r, s in zip(results, sizes))
         ax.set_title(
             f"{_scheme_text(args.scheme, results[0].scheme)}, {args.n} control points"
-            + (f" per contour ({count}; the worst)" if count > 1 else "")
-            + f": rms {worst:.1e}, max {largest:.1e} of the size",
-            fontsize=9,
+            + (f" per contour, {count} contours" if many else "")
+            + f"\ntwo-sided rms {worst:.1e}, max {largest:.1e} of the size"
+            + (" (the worst contour)" if many else "")
+            + f"\ncolours: each sample's distance to the curve (largest {top:.2g})",
+            fontsize=8,
         )
         figure.savefig(args.plot, dpi=130, bbox_inches="tight")
         print(f"wrote {args.plot}")

@@ -445,20 +445,23 @@ def plot_fit(
                         count=max(16384, 16 * len(target)))
     distances = _segment_distances(target, curve, closed)
     ax = _new_axes(ax, figsize=(6.0, 5.0))
-    (line,) = ax.plot(*_ring(curve, closed).T, color=_CURVE, lw=1.3, label="limit curve",
-                      zorder=2)
-    (polygon,) = ax.plot(*_ring(control, closed).T, "o--", ms=3, lw=0.8, color=_CONTROL,
-                         label=f"{len(control)} control points", zorder=3)
-    samples = ax.scatter(*target.T, c=distances, s=9, cmap=cmap, vmin=0.0,
+    # The samples first, small, and the curve and polygon over them: a good fit's curve
+    # runs through its samples and would otherwise be hidden under them.
+    samples = ax.scatter(*target.T, c=distances, s=5, cmap=cmap, vmin=0.0,
                          vmax=vmax if vmax is not None else max(float(distances.max()), 1e-300),
-                         label=f"{len(target)} samples", zorder=4, linewidths=0)
+                         label=f"{len(target)} samples", zorder=2, linewidths=0)
+    (line,) = ax.plot(*_ring(curve, closed).T, color=_CURVE, lw=0.9, label="limit curve",
+                      zorder=3)
+    (polygon,) = ax.plot(*_ring(control, closed).T, "o--", ms=3, lw=0.7, color=_CONTROL,
+                         label=f"{len(control)} control points", zorder=4)
     bar = None
     if colorbar:
         bar = ax.figure.colorbar(samples, ax=ax, shrink=0.8)
         bar.set_label("distance of a sample to the curve")
     ax.set_aspect("equal")
-    if legend:
-        ax.legend(loc="upper right", fontsize=7)
+    if legend:  # below the axes, where it covers no data
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=3, fontsize=7,
+                  frameon=False)
     return FitArtists(ax, samples, polygon, line, bar, distances)
 
 

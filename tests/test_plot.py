@@ -131,6 +131,15 @@ def test_plot_fit_colors_samples_by_their_distance_to_the_curve(tmp_path):
     np.testing.assert_array_equal(artists.control.get_xydata(), _closed(control))
     assert artists.colorbar is not None
     assert _image_std(artists.ax.figure, tmp_path) > 0.05
+    # Seen, not hidden (issue #18): the curve and polygon are drawn over the samples, and
+    # the legend lies below the axes, over no data.
+    assert artists.curve.get_zorder() > artists.samples.get_zorder()
+    assert artists.control.get_zorder() > artists.samples.get_zorder()
+    figure = artists.ax.figure
+    figure.canvas.draw()
+    renderer = figure.canvas.get_renderer()
+    legend = artists.ax.get_legend().get_window_extent(renderer)
+    assert legend.y1 <= artists.ax.get_window_extent(renderer).y0
     # A result saved to JSON and read back draws the same.
     path = tmp_path / "fit.json"
     js.io.write_result_json(path, {"control_points": control, "scheme": js.CubicBSpline()})
