@@ -135,9 +135,9 @@ def test_plot_fit_colors_samples_by_their_distance_to_the_curve(tmp_path):
     # the legend lies below the axes, over no data.
     assert artists.curve.get_zorder() > artists.samples.get_zorder()
     assert artists.control.get_zorder() > artists.samples.get_zorder()
-    figure = artists.ax.figure
-    figure.canvas.draw()
-    renderer = figure.canvas.get_renderer()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(artists.ax.figure).get_renderer()
     legend = artists.ax.get_legend().get_window_extent(renderer)
     assert legend.y1 <= artists.ax.get_window_extent(renderer).y0
     # A result saved to JSON and read back draws the same.
