@@ -263,7 +263,10 @@ def fit_batch(
         raise ValueError("`fit_batch(devices=...)` is empty; pass None for all devices.")
     prepared, bad = [], []
     for i, (t, w) in enumerate(zip(items, weights)):
-        if not is_traced(t) and not np.all(np.isfinite(np.asarray(t))):
+        # The stand-in needs a well-formed item: a wrong shape is its own error (from
+        # `prepare`, naming the item), whatever its values.
+        well_formed = t.ndim == 2 and t.shape[-1] >= 2
+        if well_formed and not is_traced(t) and not np.all(np.isfinite(np.asarray(t))):
             bad.append(i)
             # A stand-in that passes validation, so the batch keeps its shape; the item's
             # outputs are replaced by NaN and its status by nonfinite_input below.

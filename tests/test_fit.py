@@ -868,6 +868,9 @@ def test_bad_input_is_a_clear_error(change, error, words):
         (dict(devices=[]), "devices"),
         (dict(tol=0.0), "tol"),
         (dict(memory_budget=-1), r"`fit_batch\(memory_budget=...\)` must be a finite"),
+        # A 1-D item with a NaN (issue #18: an IndexError from the NaN item's stand-in).
+        (dict(targets=[blob(100), np.array([1.0, np.nan])]),
+         r"`fit_batch\(targets\[1\]\)\(target=...\)` must have shape \(m, d\)"),
     ],
 )
 def test_bad_batch_input_is_a_clear_error(change, words):
