@@ -193,3 +193,21 @@ def test_importable_and_usable_without_a_display(tmp_path):
     import matplotlib.image
 
     assert matplotlib.image.imread(tmp_path / "jar.png")[..., :3].std() > 0.02
+
+
+@pytest.mark.parametrize("closed", [True, False], ids=["closed", "open"])
+@pytest.mark.parametrize("vertices, samples", [(33, 7), (1001, 3000), (20_000, 1500)])
+def test_sample_distances_equal_brute_force(closed, vertices, samples):
+    """plot_fit's distances measure only the blocks of segments that can hold a
+    sample's nearest point (issue #18: the brute force took 26-35 s for a silhouette's
+    picture); the result is the brute force's, every segment checked, to rounding:
+    samples near, far (outside the curve's hull) and on it."""
+    from jaxsubdiv._plot import _segment_distances
+
+    rng = np.random.default_rng(vertices)
+    theta = np.linspace(0, 2 * np.pi, vertices, endpoint=False)
+    curve = np.stack([np.cos(theta) * (1 + 0.3 * np.cos(5 * theta)), np.sin(theta)], 1)
+    points = curve[rng.integers(0, vertices, samples)] + 0.05 * rng.standard_normal((samples, 2))
+    points[:3] = [[5.0, 5.0], [0.0, 0.0], curve[1]]
+    np.testing.assert_allclose(_segment_distances(points, curve, closed),
+                               polyline_distances(points, curve, closed), rtol=0, atol=1e-14)
