@@ -77,8 +77,9 @@ def _kind(path, kind, allowed) -> str:
         if kind not in allowed:
             raise fail(
                 path,
-                f"cannot tell the format from the extension {Path(path).suffix!r}; use one of "
-                f"{', '.join('.' + k for k in allowed)} or pass kind=.",
+                f"cannot tell the format from the extension {Path(path).suffix!r}; name "
+                f"the file with one of {', '.join('.' + k for k in allowed)} (or, from "
+                "Python, pass `kind=`).",
             )
         return kind
     if kind not in allowed:
