@@ -280,6 +280,7 @@ def test_svg_shapes_that_draw_nothing_are_skipped(tmp_path):
         '<polygon points="0,0 7,0 7,7" style="fill-opacity:0"/>'
         '<polygon points="0,0 8,0 8,8" stroke="blue" stroke-width="0" fill="none"/>'
         '<g opacity="0"><polygon points="0,0 9,0 9,9"/></g>'
+        '<polygon points="0,0 11,0 11,11" fill="transparent"/>'
         '<polygon points="0,0 10,0 10,10"/>'  # the initial fill is black: kept
     )
     outlines = jio.read_outlines(_write(tmp_path, "icon.svg", _svg(body)))

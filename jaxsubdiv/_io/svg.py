@@ -365,8 +365,9 @@ def _draws(style: dict) -> bool:
     a visible fill or stroke that is not transparent."""
     if style["visibility"] in ("hidden", "collapse"):
         return False
-    fill = style["fill"] != "none" and not _zero(style["fill-opacity"])
-    stroke = (style["stroke"] != "none" and not _zero(style["stroke-opacity"])
+    unpainted = ("none", "transparent")
+    fill = style["fill"] not in unpainted and not _zero(style["fill-opacity"])
+    stroke = (style["stroke"] not in unpainted and not _zero(style["stroke-opacity"])
               and not _zero(style["stroke-width"]))
     return fill or stroke
 
