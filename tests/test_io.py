@@ -281,13 +281,14 @@ def test_svg_shapes_that_draw_nothing_are_skipped(tmp_path):
         '<polygon points="0,0 8,0 8,8" stroke="blue" stroke-width="0" fill="none"/>'
         '<g opacity="0"><polygon points="0,0 9,0 9,9"/></g>'
         '<polygon points="0,0 11,0 11,11" fill="transparent"/>'
+        '<polygon points="0,0 12,0 12,12" style="FILL: None"/>'  # keywords: any case
         '<polygon points="0,0 10,0 10,10"/>'  # the initial fill is black: kept
     )
     outlines = jio.read_outlines(_write(tmp_path, "icon.svg", _svg(body)))
     assert [float(np.ptp(o.points[:, 0])) for o in outlines] == [2.0, 5.0, 10.0]
     nothing = _svg('<path d="M 0 0 L 1 0 L 1 1 Z" style="fill:none"/>'
                    '<g display="none"><path d="M 0 0 L 2 0 L 2 2 Z"/></g>')
-    with pytest.raises(ValueError, match=r"that draws anything \(2 shapes .* skipped\)"):
+    with pytest.raises(ValueError, match=r"that draws anything \(2 shapes or groups .* skipped\)"):
         jio.read_outlines(_write(tmp_path, "blank.svg", nothing))
 
 

@@ -342,13 +342,14 @@ _INITIAL = {"fill": "black", "fill-opacity": "1", "stroke": "none", "stroke-opac
 
 
 def _properties(element) -> dict:
-    """The element's presentation attributes, overridden by its `style` declarations."""
-    found = {name: element.get(name) for name in (*_INHERITED, "display", "opacity")
-             if element.get(name) is not None}
+    """The element's presentation attributes, overridden by its `style` declarations
+    (values in lower case: CSS keywords are case-insensitive)."""
+    found = {name: element.get(name).strip().lower()
+             for name in (*_INHERITED, "display", "opacity") if element.get(name) is not None}
     for declaration in (element.get("style") or "").split(";"):
         name, colon, value = declaration.partition(":")
         if colon:
-            found[name.strip()] = value.replace("!important", "").strip()
+            found[name.strip().lower()] = value.lower().replace("!important", "").strip()
     return found
 
 
@@ -439,8 +440,8 @@ def read_svg(path, samples) -> list[Outline]:
     if not found:
         raise fail(
             path, "has no contours: no <path>, <polygon> or <polyline> with points to read"
-            + (f" that draws anything ({skipped} shapes with no visible fill or stroke, or "
-               "hidden, were skipped)." if skipped else ".")
+            + (f" that draws anything ({skipped} shapes or groups with no visible fill "
+               "or stroke, or hidden, were skipped)." if skipped else ".")
         )
     check_points(
         path,
