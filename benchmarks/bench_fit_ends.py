@@ -17,18 +17,15 @@ the status; the warm time (median of 3). Writes `benchmarks/results/fit_ends.jso
 and `.md` (`--output` sets the JSON path).
 """
 
-import argparse
-import datetime
 import json
-import os
 import pathlib
-import platform
 import statistics
 import sys
 import time
 
 
 sys.path.insert(0, str(pathlib.Path(__file__).parent))
+import _common  # noqa: E402
 import bench_fit_quality as quality  # noqa: E402  (also: x64 on, one OpenBLAS thread)
 import jax  # noqa: E402
 import numpy as np  # noqa: E402
@@ -37,7 +34,6 @@ import fitting  # noqa: E402
 import jaxsubdiv as js  # noqa: E402
 
 
-RESULTS = pathlib.Path(__file__).parent / "results"
 MODELS = (("CubicBSpline", "open"), ("Chaikin", "open"), ("FourPoint", "clamped"))
 SAMPLES, N, SHARE = 200, 16, 0.4
 
@@ -138,28 +134,18 @@ def markdown(data):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--smoke", action="store_true")
-    parser.add_argument("--output", type=pathlib.Path, default=None)
-    args = parser.parse_args()
-    output = args.output or RESULTS / ("fit_ends_smoke.json" if args.smoke else "fit_ends.json")
-    output.parent.mkdir(parents=True, exist_ok=True)
+    args, output = _common.arguments(__doc__, "fit_ends")
     begin = time.perf_counter()
     log = lambda text: print(f"[{time.perf_counter() - begin:6.0f} s] {text}",  # noqa: E731
                              file=sys.stderr, flush=True)
-    header = {
-        "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs",
-        "load_start": [round(x, 2) for x in os.getloadavg()],
-        "jax": jax.__version__, "git": quality.git_revision(fitting.__file__),
-    }
+    header = _common.header(jax=jax.__version__, git=quality.git_revision(fitting.__file__))
     fonts, chars = ((quality.FONTS[:1], quality.CHARS[:2]) if args.smoke
                     else (quality.FONTS, quality.CHARS))
     strokes = {f"{family} '{char}'": stroke(quality.glyph(family, char))
                for family in fonts for char in chars}
     header["repeats"] = 1 if args.smoke else 3
     rows = run(strokes, MODELS[:1] if args.smoke else MODELS, header["repeats"], log)
-    header["load_end"] = [round(x, 2) for x in os.getloadavg()]
+    header["load_end"] = _common.load()
     header["wall_seconds"] = time.perf_counter() - begin
     data = {"header": header, "strokes": list(strokes), "rows": rows,
             "summary": summarise(rows)}

@@ -12,13 +12,10 @@ brute force, every segment checked (numpy, written here). Both must give the sam
 distances (checked). Writes `benchmarks/results/plot.json` and `.md`.
 """
 
-import argparse
-import datetime
 import json
-import os
 import pathlib
-import platform
 import statistics
+import sys
 import time
 
 import numpy as np
@@ -27,7 +24,8 @@ import jaxsubdiv as js
 from jaxsubdiv._plot import _limit_curve, _segment_distances
 
 
-RESULTS = pathlib.Path(__file__).parent / "results"
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+import _common  # noqa: E402
 
 
 def brute_force(samples, polyline):
@@ -64,17 +62,8 @@ def median_time(function, repeats):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--smoke", action="store_true")
-    parser.add_argument("--output", type=pathlib.Path, default=None)
-    args = parser.parse_args()
-    output = args.output or RESULTS / ("plot_smoke.json" if args.smoke else "plot.json")
-    output.parent.mkdir(parents=True, exist_ok=True)
-    header = {
-        "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs",
-        "load_start": [round(x, 2) for x in os.getloadavg()],
-    }
+    args, output = _common.arguments(__doc__, "plot")
+    header = _common.header()
     rows = []
     for m in (400,) if args.smoke else (400, 2644, 10_000):
         samples = silhouette(m)
@@ -92,7 +81,7 @@ def main():
                          repeats=repeats))
         print(f"{m} samples, {len(curve)} curve points: brute force {brute:.3f} s, blocks "
               f"{blocks:.3f} s ({brute / blocks:.0f}x), same distances to {gap:.1e}")
-    header["load_end"] = [round(x, 2) for x in os.getloadavg()]
+    header["load_end"] = _common.load()
     output.write_text(json.dumps({"header": header, "rows": rows}, indent=1))
     lines = [
         "# `plot_fit`'s sample distances: block search against brute force", "",

@@ -1,0 +1,38 @@
+"""What the newer benchmark scripts share: their `--smoke`/`--output` arguments, where
+their results go, and the header that dates a run and records the machine's load."""
+
+import argparse
+import datetime
+import os
+import pathlib
+import platform
+
+
+RESULTS = pathlib.Path(__file__).parent / "results"
+
+
+def arguments(doc: str, name: str):
+    """`(args, output)`: the parsed `--smoke` and `--output`, and the JSON path
+    (`results/<name>.json`, or `<name>_smoke.json` for a smoke run) with its folder made."""
+    parser = argparse.ArgumentParser(description=doc.split("\n")[0])
+    parser.add_argument("--smoke", action="store_true", help="a small run, for CI")
+    parser.add_argument("--output", type=pathlib.Path, default=None, help="JSON path")
+    args = parser.parse_args()
+    output = args.output or RESULTS / (f"{name}_smoke.json" if args.smoke else f"{name}.json")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    return args, output
+
+
+def header(**extra) -> dict:
+    """The run's date (UTC), machine and load average at the start (1, 5, 15 min);
+    record `load_end` with `load()` when the run ends."""
+    return {
+        "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs",
+        "load_start": load(),
+        **extra,
+    }
+
+
+def load() -> list[float]:
+    return [round(x, 2) for x in os.getloadavg()]
