@@ -5,6 +5,10 @@ step count and loss as traced values; a `jax.debug.callback` then prints them on
 host at every step (under `vmap` reduced over the batch first, so one line). A batch:
 one line counting the outlines done, updated as each finishes (`items_done`).
 
+On a terminal the line is rewritten in place (`\r`); when stderr is a file or a pipe,
+rewrites would pile up in it (15 lines for a 4 s fit), so only the final state is
+written there (`_live`).
+
 Host callbacks keep JAX from writing a program to its persistent compilation cache, so
 `fit(progress="time")` shows only the elapsed time instead, from a host thread
 (`elapsed`): the compiled program is then the same as without progress, and cacheable.
@@ -23,7 +27,17 @@ import jax.numpy as jnp
 _state = {"last": 0.0, "start": 0.0}
 
 
+def _live() -> bool:
+    """Whether stderr is a terminal, where a line can be rewritten in place."""
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):  # replaced by an object without it, or closed
+        return False
+
+
 def _show(step, loss):
+    if not _live():  # no final step is known here: the caller reports the result
+        return
     now = time.perf_counter()
     if int(step) == 0:
         _state["start"] = now
@@ -54,12 +68,15 @@ def begin():
 
 def _show_items(done, total):
     now = time.perf_counter()
+    finished = int(done) >= int(total)
     # (The first report of a sharded batch already counts one outline per device.)
-    if now - _state["last"] < 0.1 and int(done) < int(total):
+    if not finished and (now - _state["last"] < 0.1 or not _live()):
         return
     _state["last"] = now
+    begin, end = ("\r", "") if _live() else ("", "\n")  # rewritten in place, or a line
     sys.stderr.write(
-        f"\r  fitting: {int(done):6d} / {int(total)} outlines  {now - _state['start']:6.1f} s"
+        f"{begin}  fitting: {int(done):6d} / {int(total)} outlines  "
+        f"{now - _state['start']:6.1f} s{end}"
     )
     sys.stderr.flush()
 
@@ -92,7 +109,9 @@ def compiling(key, samples: int) -> None:
 
 
 def finish():
-    """End the progress line."""
+    """End the progress line (on a terminal; elsewhere per-step lines were not written)."""
+    if not _live():
+        return
     sys.stderr.write("\n")
     sys.stderr.flush()
 
@@ -100,9 +119,11 @@ def finish():
 @contextlib.contextmanager
 def elapsed(interval: float = 0.25):
     """While the block runs, a line on stderr with the seconds since it began, updated
-    every `interval` seconds from a host thread (nothing enters the compiled program)."""
+    every `interval` seconds from a host thread (nothing enters the compiled program);
+    when stderr is not a terminal, only the final line."""
     start = time.perf_counter()
     stop = threading.Event()
+    live = _live()
 
     def show():
         while not stop.wait(interval):
@@ -110,11 +131,14 @@ def elapsed(interval: float = 0.25):
             sys.stderr.flush()
 
     thread = threading.Thread(target=show, daemon=True)
-    thread.start()
+    if live:
+        thread.start()
     try:
         yield
     finally:
         stop.set()
-        thread.join()
-        sys.stderr.write(f"\r  fitting: {time.perf_counter() - start:6.1f} s, done\n")
+        if live:
+            thread.join()
+        begin = "\r" if live else ""
+        sys.stderr.write(f"{begin}  fitting: {time.perf_counter() - start:6.1f} s, done\n")
         sys.stderr.flush()

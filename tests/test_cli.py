@@ -105,6 +105,8 @@ def test_fit_circle_from_csv_with_the_installed_script(tmp_path):
     # The progress display: a first-use note, then the elapsed time.
     assert "preparing the fit for 224 samples" in result.stderr
     assert re.search(r"fitting: +[0-9.]+ s, done", result.stderr)
+    # stderr is a pipe here, not a terminal: one final line, no rewrites piling up.
+    assert "\r" not in result.stderr and result.stderr.count("fitting:") == 1
     assert "contour 1 of 1: 200 samples, closed" in result.stdout
     assert "status     converged" in result.stdout
     saved = json.loads(out.read_text())

@@ -962,6 +962,28 @@ def test_progress_is_off_by_default_and_one_line_for_a_batch(capfd, monkeypatch)
     assert items == [(1, 3), (2, 3), (3, 3)] and calls == []
 
 
+@pytest.mark.parametrize("terminal", [True, False])
+def test_elapsed_time_rewrites_a_line_only_on_a_terminal(capfd, monkeypatch, terminal):
+    import time
+
+    import fitting._progress as progress
+
+    monkeypatch.setattr(progress, "_live", lambda: terminal)
+    with progress.elapsed(interval=0.01):
+        time.sleep(0.2)
+    err = capfd.readouterr().err
+    assert re.fullmatch(r"(\r  fitting: +[0-9.]+ s)+\r  fitting: +[0-9.]+ s, done\n" if terminal
+                        else r"  fitting: +[0-9.]+ s, done\n", err), err
+    # A batch's count: rewritten on a terminal; elsewhere only the last, as a line.
+    progress.begin()
+    for done in (1, 2, 3):
+        progress._show_items(done, 3)
+    progress.finish()
+    err = capfd.readouterr().err
+    assert re.search(r"  fitting: +3 / 3 outlines +[0-9.]+ s\n$", err), err
+    assert ("\r" in err) == terminal and err.count("\n") == 1
+
+
 # --------------------------------------------------------------------------------------
 # Compile once: shape buckets and traced settings
 
