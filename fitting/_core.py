@@ -10,6 +10,7 @@ dtypes of the data; everything else is a traced array: the samples and weights
 
 import contextlib
 import dataclasses
+from typing import Any
 
 import equinox as eqx
 import jax
@@ -24,7 +25,7 @@ from jaxsubdiv.validation import is_traced
 from . import _exported, _progress
 from ._curve import curve_samples
 from ._init import canonical_order, initial_control
-from ._objective import FitData, Objective
+from ._objective import FitData, Objective, curve_errors
 from ._params import from_unconstrained, to_unconstrained
 from ._result import FitResult, status_code
 from ._solver import FootPointLevenbergMarquardt
@@ -87,9 +88,31 @@ def traced_settings(smoothing, tol, max_steps, dtype, default_solver: bool):
     return xp.sqrt(xp.asarray(smoothing, dtype) + tiny), xp.asarray(tol, dtype), steps
 
 
-def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
-            progress: bool = False) -> FitResult:
-    """Fit one target (pure JAX; `fit` and `fit_batch` jit and map this).
+class Solved(eqx.Module):
+    """A fit solved but not yet measured (`solve_one`): the fields of its `FitResult`
+    that the solve gives, and what `measure_one` needs. `curve` (the curve's samples),
+    `tangents` (its tangents there for the Hermite model, else None), `target` and
+    `feet` (the tracked curve positions of the samples on a closed Hermite curve, else
+    None) are in units of the outline's size: `center + scale * x` in the target's."""
+
+    control_points: Array
+    scheme: Any
+    curve: Array
+    tangents: Array | None
+    target: Array
+    weights: Array
+    count: Any
+    feet: Array | None
+    center: Array
+    scale: Array
+    num_steps: Array
+    status: Array
+    newton_step: Array
+
+
+def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
+              progress: bool = False) -> Solved:
+    """Solve one fit (pure JAX): everything of `fit_one` but the errors.
 
     `data.target` and `data.weights` are padded to the program's bucket
     (`objective.num_target` samples), `data.count` is the number of samples before
@@ -156,14 +179,41 @@ def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver
     )
     # The default solver reports its foot points and model at the returned point.
     newton = newton_step(objective, sol.value, scaled, sol.stats.get("model"))
-    curve, errors = objective.errors(sol.value, scaled, feet=sol.stats.get("hint"))
-    # Errors are measured in units of the outline's size, then scaled: squares of
-    # distances in the caller's units could overflow or underflow (size 1e160 or 1e-160).
-    rms_t2c, max_t2c = scale * errors.rms_target_to_curve, scale * errors.max_target_to_curve
-    rms_c2t, max_c2t = scale * errors.rms_curve_to_target, scale * errors.max_curve_to_target
-    return FitResult(
+    curve, tangents = objective.curve(sol.value, scaled)
+    hint = sol.stats.get("hint")
+    return Solved(
         control_points=center + scale * objective.control_of(sol.value, scaled),
         scheme=from_unconstrained(scheme, objective.names, sol.value["params"]),
+        curve=curve,
+        tangents=tangents,
+        target=scaled.target,
+        weights=scaled.weights,
+        count=scaled.count,
+        feet=hint[0] if hint is not None and objective.closed and objective.hermite else None,
+        center=center,
+        scale=scale,
+        num_steps=sol.stats["num_steps"],
+        status=status_code(sol.result),
+        newton_step=scale * newton,
+    )
+
+
+def measure_one(curve, tangents, target, weights, count, feet, center, scale, *,
+                closed: bool) -> dict[str, Array]:
+    """The curve in the target's units and the fit's two-sided errors (pure JAX; the
+    arguments are `Solved`'s, `measure_arguments`).
+
+    A function of the curve's samples alone, not of the scheme or the fit's settings:
+    `fitting.fit` compiles it as a program of its own, which fits of other schemes,
+    control point counts, parameters and solvers share when their sample-count bucket,
+    number of curve samples and curve model agree (the errors are about a third of a
+    fit's compile time when compiled with the solve)."""
+    errors = curve_errors(curve, tangents, target, weights, count, feet, closed=closed)
+    # Measured in units of the outline's size, then scaled: squares of distances in the
+    # caller's units could overflow or underflow (size 1e160 or 1e-160).
+    rms_t2c, max_t2c = scale * errors.rms_target_to_curve, scale * errors.max_target_to_curve
+    rms_c2t, max_c2t = scale * errors.rms_curve_to_target, scale * errors.max_curve_to_target
+    return dict(
         curve=center + scale * curve,
         rms=jnp.maximum(rms_t2c, rms_c2t),
         max_error=jnp.maximum(max_t2c, max_c2t),
@@ -171,15 +221,36 @@ def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver
         max_target_to_curve=max_t2c,
         rms_curve_to_target=rms_c2t,
         max_curve_to_target=max_c2t,
-        num_steps=sol.stats["num_steps"],
-        status=status_code(sol.result),
-        newton_step=scale * newton,
-        boundary=objective.boundary,
-        levels=objective.levels,
     )
 
 
-fit_jit = eqx.filter_jit(fit_one)
+def measure_arguments(solved: Solved) -> tuple:
+    """`measure_one`'s arguments from a `Solved`."""
+    return (solved.curve, solved.tangents, solved.target, solved.weights, solved.count,
+            solved.feet, solved.center, solved.scale)
+
+
+def assemble(solved: Solved, measured: dict, objective: Objective) -> FitResult:
+    """The `FitResult` from `solve_one`'s and `measure_one`'s outputs."""
+    return FitResult(control_points=solved.control_points, scheme=solved.scheme,
+                     num_steps=solved.num_steps, status=solved.status,
+                     newton_step=solved.newton_step, boundary=objective.boundary,
+                     levels=objective.levels, **measured)
+
+
+def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
+            progress: bool = False) -> FitResult:
+    """Fit one target (pure JAX; `fit_batch` maps this, and `fit` runs its two parts,
+    `solve_one` and `measure_one`, as two compiled programs)."""
+    solved = solve_one(data, init, tol, max_steps, objective=objective, solver=solver,
+                       progress=progress)
+    return assemble(solved, measure_one(*measure_arguments(solved), closed=objective.closed),
+                    objective)
+
+
+# Module level, so that repeated calls with the same shapes and settings reuse them.
+solve_jit = eqx.filter_jit(solve_one)
+measure_jit = eqx.filter_jit(measure_one)
 
 
 def default_solver(objective: Objective, tol, valid_count, max_steps, progress=False):
@@ -284,19 +355,25 @@ def newton_step(objective: Objective, y, data: FitData, model=None) -> Float[Arr
     return jnp.where(jnp.all(jnp.isfinite(factor[0])), largest, jnp.inf)
 
 
-def result_structure(scheme, boundary: str, levels: int):
-    """The pytree structure of `fit_one`'s `FitResult` (the fitted scheme has the
-    structure of the given one)."""
+def solved_structure(scheme, objective: Objective, counted: bool):
+    """The pytree structure of `solve_one`'s `Solved` with the default solver (the fitted
+    scheme has the structure of the given one; `counted`: the data have a `count`)."""
     blank = dict.fromkeys(
-        ("control_points", "curve", "rms", "max_error", "rms_target_to_curve",
-         "max_target_to_curve", "rms_curve_to_target", "max_curve_to_target", "num_steps",
+        ("control_points", "curve", "target", "weights", "center", "scale", "num_steps",
          "status", "newton_step"), 0.0)
-    return jax.tree.structure(FitResult(scheme=scheme, boundary=boundary, levels=levels,
-                                        **blank))
+    return jax.tree.structure(Solved(
+        scheme=scheme, tangents=0.0 if objective.hermite else None,
+        count=0.0 if counted else None,
+        feet=0.0 if objective.closed and objective.hermite else None, **blank))
+
+
+MEASURED = jax.tree.structure(dict.fromkeys(
+    ("curve", "rms", "max_error", "rms_target_to_curve", "max_target_to_curve",
+     "rms_curve_to_target", "max_curve_to_target"), 0.0))
 
 
 def program_key(objective: Objective, data: FitData, init, solver, progress: bool) -> tuple:
-    """What selects `fit_jit`'s compiled program besides the data's values (for the
+    """What selects `solve_jit`'s compiled program besides the data's values (for the
     progress display's "compiling" line)."""
     return (objective, data.target.shape[1], str(data.target.dtype), init is None,
             jax.tree.structure(data.scheme), type(solver).__name__, progress)
@@ -304,11 +381,12 @@ def program_key(objective: Objective, data: FitData, init, solver, progress: boo
 
 def run(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
         progress=False):
-    """`fit_one`, compiled: `progress` True for a line per solver step, `"time"` for
-    the elapsed time (the program is then the one without progress).
+    """`fit_one`, compiled as two programs, `solve_one` and `measure_one` (shared by fits
+    of other settings with the same shapes): `progress` True for a line per solver
+    step, `"time"` for the elapsed time (the program is then the one without progress).
 
     With the persistent compilation cache on, a concrete call with the default solver
-    runs a program exported to disk: a new process then skips tracing and lowering.
+    runs programs exported to disk: a new process then skips tracing and lowering.
     """
     steps = progress is True  # a line per solver step, from inside the program
     if progress:
@@ -321,10 +399,14 @@ def run(data: FitData, init, tol, max_steps, *, objective: Objective, solver=Non
     clock = _progress.elapsed() if progress == "time" else contextlib.nullcontext()
     with clock:
         if exported:
-            structure = result_structure(data.scheme, objective.boundary, objective.levels)
-            result = _exported.call(fit_one, args, static, structure)
+            structure = solved_structure(data.scheme, objective, data.count is not None)
+            solved = _exported.call(solve_one, args, static, structure)
+            measured = _exported.call(measure_one, measure_arguments(solved),
+                                      {"closed": objective.closed}, MEASURED)
         else:
-            result = fit_jit(*args, **static)
+            solved = solve_jit(*args, **static)
+            measured = measure_jit(*measure_arguments(solved), closed=objective.closed)
+        result = assemble(solved, measured, objective)
         if progress:
             jax.block_until_ready(result)
     if steps:

@@ -58,7 +58,7 @@ from ._params import from_unconstrained
 BACK_WEIGHT = 0.1
 
 
-#: Points of the curve by which `Objective.errors` refines its maximum distance to the
+#: Points of the curve by which `curve_errors` refines its maximum distance to the
 #: target near the largest found at the curve samples and midpoints.
 REFINE_MAX = 64
 
@@ -96,7 +96,7 @@ class FitData(eqx.Module):
 
 
 class TwoSidedErrors(eqx.Module):
-    """RMS and largest distances of a fit in each direction (`Objective.errors`)."""
+    """RMS and largest distances of a fit in each direction (`curve_errors`)."""
 
     rms_target_to_curve: Float[Array, ""]
     max_target_to_curve: Float[Array, ""]
@@ -104,8 +104,101 @@ class TwoSidedErrors(eqx.Module):
     max_curve_to_target: Float[Array, ""]
 
 
+def curve_errors(
+    X: Float[Array, "N d"],
+    VX: Float[Array, "N d"] | None,
+    target: Float[Array, "m d"],
+    weights: Float[Array, " m"],
+    count: Int[ArrayLike, ""] | None,
+    previous: Float[Array, " m"] | None = None,
+    *,
+    closed: bool,
+) -> TwoSidedErrors:
+    r"""The two-sided distances between the curve through the samples `X` (with tangents
+    `VX`: the Hermite model, else chords) and the `target` samples (the first `count`
+    the outline, weights zero for ignored ones), in their units.
+
+    A function of the curve alone, not of the scheme or the fit's settings, so that
+    `fitting.fit` runs it as a program of its own that fits of other schemes, control
+    point counts and settings with the same shapes share (`_core.measure_one`).
+
+    - Target to curve: each sample's distance to the curve (the Hermite curve of
+      `_curve.evaluate` for $C^1$ schemes, else the chords between the curve
+      samples) at its global nearest point: certified on the chords
+      (`_curve.nearest_on_polyline`), refined by Newton's method on the Hermite curve
+      (`_curve.nearest_on_curve`: never below the true distance, and above it by at
+      most twice the curve's largest deviation from its chords). RMS over the samples
+      with non-zero weight (each counted once, whatever its weight).
+    - Curve to target: the distance of each point of the curve to the polyline
+      through the first `count` samples, averaged by *arc length* along the
+      curve (Simpson's rule on each segment between curve samples, from its ends
+      and its midpoint, with the segment's chord as its length: not by parameter,
+      which weighs the curve where its samples crowd, at corners, more), and its
+      maximum over the curve samples and those midpoints, refined near the largest
+      by `REFINE_MAX` more points of the curve (a peak elsewhere, up to a quarter
+      segment above its sampled neighbours, can be missed: measured at most 2%).
+
+    Differentiated with the nearest points held (the distance is stationary in them),
+    with a zero derivative for a sample exactly on the curve.
+
+    `previous`: the feet a solver tracked on a closed Hermite curve (curve positions
+    of the samples), if any: each sample keeps the nearer of its tracked foot and the
+    global nearest point (a tracked foot can sit on a branch of the curve that is no
+    longer nearest).
+    """
+    valid = weights > 0
+    num_curve = X.shape[0]
+    if VX is not None:
+        tau = nearest_on_curve(target, X, VX, closed, previous=previous)
+        point, _ = evaluate(X, VX, tau, closed)
+        to_curve = safe_norm(point - target)
+    else:
+        to_curve = distances(target, X, closed)
+    to_curve = jnp.where(valid, to_curve, 0.0)
+    # The curve's segments: ends, midpoints (on the Hermite curve or the chord) and
+    # chord lengths, for Simpson's rule in arc length.
+    segments = num_curve if closed else num_curve - 1
+    middle = jnp.arange(segments, dtype=target.dtype) + 0.5
+    (midpoint,) = evaluate(X, VX, middle, closed, order=0)
+    ends = jnp.roll(X, -1, axis=0) if closed else X[1:]
+    length = safe_norm(ends - X[:segments])
+    to_target = distances(jnp.concatenate([X, midpoint]), target, closed, count=count)
+    at_vertex, at_middle = to_target[:num_curve] ** 2, to_target[num_curve:] ** 2
+    after = jnp.roll(at_vertex, -1) if closed else at_vertex[1:]
+    integral = length @ (at_vertex[:segments] + 4 * at_middle + after) / 6
+    total = jnp.sum(length)
+    # A curve of zero length (all control points equal) has no arc length to
+    # average over: then every point is the same point.
+    mean_square = jnp.where(total > 0, integral / jnp.where(total > 0, total, 1.0),
+                            at_vertex[0])
+    # The maximum: refined around the largest of those values, where the distance
+    # (1-Lipschitz along the curve) peaks between samples (at a kink of the target,
+    # typically), by `REFINE_MAX` more points of the curve within half a segment of
+    # it either way, measured to every chord of the target (few points: no search;
+    # the padding's chords have length zero at the last sample). A peak elsewhere,
+    # up to a quarter segment above its sampled neighbours, can still be missed.
+    dtype = target.dtype
+    largest = jnp.argmax(to_target)
+    centre = jnp.where(largest < num_curve, largest.astype(dtype),
+                       (largest - num_curve).astype(dtype) + 0.5)
+    around = centre + jnp.linspace(-0.5, 0.5, REFINE_MAX, dtype=dtype)
+    if not closed:
+        around = jnp.clip(around, 0.0, num_curve - 1.0)
+    (near_peak,) = evaluate(X, VX, around, closed, order=0)
+    segment, fraction = all_distances(*jax.lax.stop_gradient((near_peak, target)),
+                                      closed, chunk=REFINE_MAX)
+    peak = jnp.max(safe_norm(foot_residual(near_peak, target, segment, fraction, closed)))
+    share = (valid / jnp.sum(valid)).astype(target.dtype)
+    return TwoSidedErrors(
+        rms_target_to_curve=safe_sqrt(share @ to_curve**2),
+        max_target_to_curve=jnp.max(to_curve),
+        rms_curve_to_target=safe_sqrt(mean_square),
+        max_curve_to_target=jnp.maximum(jnp.max(to_target), peak),
+    )
+
+
 class Objective(eqx.Module):
-    """The residuals of one fit, and its errors: the static settings, built on the host.
+    """The residuals of one fit, and its curve: the static settings, built on the host.
 
     Every field is static (hashable), so the objective is passed to the compiled fit as
     one static argument: equal settings select the same compiled program, and the data,
@@ -292,89 +385,12 @@ class Objective(eqx.Module):
         implicit adjoint; see `residuals_at` for how the feet enter the derivatives)."""
         return self.residuals_at(y, args, self.feet(y, args))
 
-    def errors(self, y, data: FitData, feet=None) -> tuple[Array, TwoSidedErrors]:
-        r"""The curve at `y` (its samples `(N, d)`) and its two-sided distances to the
-        samples of `data`, in their units.
-
-        - Target to curve: each sample's distance to the curve (the Hermite curve of
-          `_curve.evaluate` for $C^1$ schemes, else the chords between the curve
-          samples) at its global nearest point: certified on the chords
-          (`_curve.nearest_on_polyline`), refined by Newton's method on the Hermite curve
-          (`_curve.nearest_on_curve`: never below the true distance, and above it by at
-          most twice the curve's largest deviation from its chords). RMS over the samples
-          with non-zero weight (each counted once, whatever its weight).
-        - Curve to target: the distance of each point of the curve to the polyline
-          through the first `data.count` samples, averaged by *arc length* along the
-          curve (Simpson's rule on each segment between curve samples, from its ends
-          and its midpoint, with the segment's chord as its length: not by parameter,
-          which weighs the curve where its samples crowd, at corners, more), and its
-          maximum over the curve samples and those midpoints, refined near the largest
-          by `REFINE_MAX` more points of the curve (a peak elsewhere, up to a quarter
-          segment above its sampled neighbours, can be missed: measured at most 2%).
-
-        Differentiated with the nearest points held (the distance is stationary in them),
-        with a zero derivative for a sample exactly on the curve.
-
-        `feet`: the foot points a solver found at `y` (`feet(y, data)`'s), if any: on a
-        closed Hermite curve each sample keeps the nearer of its tracked foot and the
-        global nearest point (a tracked foot can sit on a branch of the curve that is no
-        longer nearest).
-        """
-        target, valid = data.target, data.weights > 0
+    def curve(self, y, data: FitData) -> tuple[Array, Array | None]:
+        """The curve's samples `(N, d)` at `y`, and its tangents there for the Hermite
+        model (else None)."""
         _, A, V, _ = self.basis(y, data)
         P = self.control(y, data, A)
-        X = A @ P
-        VX = None if V is None else V @ P
-        if self.hermite:
-            previous = feet[0] if feet is not None and self.closed else None
-            tau = nearest_on_curve(target, X, VX, self.closed, previous=previous)
-            point, _ = evaluate(X, VX, tau, self.closed)
-            to_curve = safe_norm(point - target)
-        else:
-            to_curve = distances(target, X, self.closed)
-        to_curve = jnp.where(valid, to_curve, 0.0)
-        # The curve's segments: ends, midpoints (on the Hermite curve or the chord) and
-        # chord lengths, for Simpson's rule in arc length.
-        segments = self.num_curve if self.closed else self.num_curve - 1
-        middle = jnp.arange(segments, dtype=target.dtype) + 0.5
-        (midpoint,) = evaluate(X, VX, middle, self.closed, order=0)
-        ends = jnp.roll(X, -1, axis=0) if self.closed else X[1:]
-        length = safe_norm(ends - X[:segments])
-        to_target = distances(jnp.concatenate([X, midpoint]), target, self.closed,
-                              count=data.count)
-        at_vertex, at_middle = to_target[: self.num_curve] ** 2, to_target[self.num_curve:] ** 2
-        after = jnp.roll(at_vertex, -1) if self.closed else at_vertex[1:]
-        integral = length @ (at_vertex[:segments] + 4 * at_middle + after) / 6
-        total = jnp.sum(length)
-        # A curve of zero length (all control points equal) has no arc length to
-        # average over: then every point is the same point.
-        mean_square = jnp.where(total > 0, integral / jnp.where(total > 0, total, 1.0),
-                                at_vertex[0])
-        # The maximum: refined around the largest of those values, where the distance
-        # (1-Lipschitz along the curve) peaks between samples (at a kink of the target,
-        # typically), by `REFINE_MAX` more points of the curve within half a segment of
-        # it either way, measured to every chord of the target (few points: no search;
-        # the padding's chords have length zero at the last sample). A peak elsewhere,
-        # up to a quarter segment above its sampled neighbours, can still be missed.
-        dtype = target.dtype
-        largest = jnp.argmax(to_target)
-        centre = jnp.where(largest < self.num_curve, largest.astype(dtype),
-                           (largest - self.num_curve).astype(dtype) + 0.5)
-        around = centre + jnp.linspace(-0.5, 0.5, REFINE_MAX, dtype=dtype)
-        if not self.closed:
-            around = jnp.clip(around, 0.0, self.num_curve - 1.0)
-        (near_peak,) = evaluate(X, VX, around, self.closed, order=0)
-        segment, fraction = all_distances(*jax.lax.stop_gradient((near_peak, target)),
-                                          self.closed, chunk=REFINE_MAX)
-        peak = jnp.max(safe_norm(foot_residual(near_peak, target, segment, fraction,
-                                               self.closed)))
-        share = (valid / jnp.sum(valid)).astype(target.dtype)
-        return X, TwoSidedErrors(
-            rms_target_to_curve=safe_sqrt(share @ to_curve**2),
-            max_target_to_curve=jnp.max(to_curve),
-            rms_curve_to_target=safe_sqrt(mean_square),
-            max_curve_to_target=jnp.maximum(jnp.max(to_target), peak),
-        )
+        return A @ P, None if V is None else V @ P
 
     def quadratic_model(self, y, args, feet=None):
         r"""Loss, half gradient and half Hessian of the loss at `y` (flattened in

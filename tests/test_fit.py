@@ -1,5 +1,6 @@
 """`fitting.fit` and `fitting.fit_batch` against independent references."""
 
+import logging
 import os
 import re
 import subprocess
@@ -994,11 +995,11 @@ def _bumpy(m, phase=0.0):
     return np.stack([radius * np.cos(angle), 0.8 * radius * np.sin(angle)], 1)
 
 
-def test_new_values_and_lengths_in_one_bucket_compile_nothing():
+def test_new_values_and_lengths_in_one_bucket_compile_nothing(caplog):
     """After one fit, other outlines of other lengths in the same sample-count bucket
     (400 and 440 samples pad to 448; 200 with `pad_to=430`), and new `tol`, `max_steps`,
-    `smoothing`, `weights` and four-point `w`, reuse the compiled program: no XLA
-    compilation at all."""
+    `smoothing`, `weights` and four-point `w`, reuse the compiled programs: no XLA
+    compilation at all. Fits of other settings share the errors' program."""
     scheme = js.FourPoint(0.06)
     fitting.fit(_bumpy(400), scheme, 10, tol=1e-6, on_failure="ignore")
     with CompileCounter() as compiled:
@@ -1013,6 +1014,16 @@ def test_new_values_and_lengths_in_one_bucket_compile_nothing():
             fitting.fit(_bumpy(m, 0.3), scheme, 10, on_failure="ignore", **options)
         fitting.fit(_bumpy(430), js.FourPoint(0.1), 10, on_failure="ignore")
     assert compiled.count == 0
+    # Another scheme and control-point count with as many curve samples (20 x 2^6 =
+    # 10 x 2^7): a new solve, but the errors' measurement is the same program.
+    caplog.set_level(logging.DEBUG)
+    with jax.log_compiles():
+        result = fitting.fit(_bumpy(430), js.CubicBSpline(), 20, on_failure="ignore")
+    compiled = [r.getMessage().split(" with ")[0] for r in caplog.records
+                if r.getMessage().startswith("Compiling ")]
+    assert result.curve.shape[0] == 1280
+    assert "Compiling jit(solve_one)" in compiled, compiled
+    assert "Compiling jit(measure_one)" not in compiled, compiled
 
 
 def test_optimistix_solver_tolerance_and_smoothing_are_data():
