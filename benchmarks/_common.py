@@ -1,11 +1,15 @@
 """What the newer benchmark scripts share: their `--smoke`/`--output` arguments, where
-their results go, and the header that dates a run and records the machine's load."""
+their results go, the header that dates a run and records the machine's load, and a
+fresh-process runner."""
 
 import argparse
 import datetime
+import json
 import os
 import pathlib
 import platform
+import subprocess
+import sys
 
 
 RESULTS = pathlib.Path(__file__).parent / "results"
@@ -36,3 +40,14 @@ def header(**extra) -> dict:
 
 def load() -> list[float]:
     return [round(x, 2) for x in os.getloadavg()]
+
+
+def child_json(code: str, *args: str, what: str, **run) -> dict:
+    """Run `code` with `args` in a fresh interpreter (this one's; `run`: more arguments
+    of `subprocess.run`, such as `env` and `cwd`) and parse its last line of output as
+    JSON; a failed child stops the benchmark with its stderr, named by `what`."""
+    done = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True,
+                          timeout=run.pop("timeout", 900), **run)
+    if done.returncode != 0:
+        raise SystemExit(f"{what} failed:\n{done.stderr}")
+    return json.loads(done.stdout.strip().splitlines()[-1])

@@ -32,10 +32,13 @@ import json
 import os
 import platform
 import statistics
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+
+sys.path.insert(0, str(Path(__file__).parent))
+import _common  # noqa: E402
 
 
 HERE = Path(__file__).resolve().parent
@@ -91,11 +94,8 @@ def run_child(program: str, src: Path | None, scratch: Path) -> dict:
     if src is not None:
         env["PYTHONPATH"] = os.pathsep.join([str(src)] + ([env["PYTHONPATH"]]
                                                            if env.get("PYTHONPATH") else []))
-    done = subprocess.run([sys.executable, "-c", CHILD, program], env=env, cwd=scratch,
-                          capture_output=True, text=True, timeout=900)
-    if done.returncode != 0:
-        raise SystemExit(f"{program} in {src or 'the installed tree'} failed:\n{done.stderr}")
-    return json.loads(done.stdout.strip().splitlines()[-1])
+    return _common.child_json(CHILD, program, env=env, cwd=scratch,
+                              what=f"{program} in {src or 'the installed tree'}")
 
 
 def markdown(report: dict) -> str:

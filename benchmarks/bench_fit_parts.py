@@ -19,7 +19,6 @@ path; the Markdown goes beside it).
 
 import json
 import statistics
-import subprocess
 import sys
 from pathlib import Path
 
@@ -76,14 +75,6 @@ print(json.dumps({"trace": trace, "lower": lower, "compile": compile_,
 """
 
 
-def run_child(program: str) -> dict:
-    done = subprocess.run([sys.executable, "-c", CHILD, program], capture_output=True,
-                          text=True, timeout=900, cwd=Path(__file__).parent)
-    if done.returncode != 0:
-        raise SystemExit(f"{program} failed:\n{done.stderr}")
-    return json.loads(done.stdout.strip().splitlines()[-1])
-
-
 def markdown(report: dict) -> str:
     lines = [f"# Where a fit's compile time goes ({report['date']})", "",
              f"Machine: {report['machine']}; load average at the start {report['load_start']},"
@@ -111,7 +102,8 @@ def main() -> int:
     report["runs"] = []
     for index in range(repeat):
         for program in PROGRAMS:
-            result = run_child(program)
+            result = _common.child_json(CHILD, program, what=program,
+                                        cwd=Path(__file__).parent)
             report["runs"].append({"program": program, "run": index, **result})
             print(f"run {index + 1}/{repeat} {program:12s} compile {result['compile']:.2f} s",
                   flush=True)
