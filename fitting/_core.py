@@ -1,11 +1,14 @@
-"""The fit of one outline as one compiled program: `fit_one`, its key, and how it runs.
+"""The fit of one outline: `fit_one`, its two parts, their keys, and how they run.
 
-`fit_one` is pure JAX: `fitting.fit` jits it (`eqx.filter_jit`) or runs its program
-exported to disk (`_exported`), and `fitting.fit_batch` maps it over a batch. What
-selects the compiled program is static and hashable: the `Objective` (shapes and
-settings, built on the host by `make_objective`), the solver's kind and the shapes and
-dtypes of the data; everything else is a traced array: the samples and weights
-(`FitData`), the smoothing, `tol`, and `max_steps` with the default solver.
+`fit_one` is pure JAX: the solve (`solve_one`) and the measurement of its errors
+(`measure_one`, a function of the curve alone, so one program serves fits of many
+settings). `fitting.fit` jits the two parts separately (`eqx.filter_jit`) or runs their
+programs exported to disk (`_exported`); `fitting.fit_batch` maps `fit_one` over a
+batch. What selects the solve's compiled program is static and hashable: the
+`Objective` (shapes and settings, built on the host by `make_objective`), the solver's
+kind and the shapes and dtypes of the data; everything else is a traced array: the
+samples and weights (`FitData`), the smoothing, `tol`, and `max_steps` with the default
+solver.
 """
 
 import contextlib

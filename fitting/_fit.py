@@ -80,7 +80,7 @@ def fit(
     respect to the target, the weights, the smoothing and the scheme's parameters, by
     implicit differentiation of the optimum (`optimistix.ImplicitAdjoint`).
 
-    **Compilation.** The fit is one compiled program per shape and static setting:
+    **Compilation.** The fit is one compiled solve per shape and static setting:
     sample-count bucket (the `m` samples are padded with ignored copies to the next of
     16, 20, 24, 28, 32, 40, 48, ...: outlines of 400 and 440 samples share the program
     for 448), dimension, dtype, `n_control`, `levels`, `boundary`, the scheme's type,
@@ -89,9 +89,11 @@ def fit(
     parameter values compile nothing, except across the scheme's C1 boundary: the curve
     model (Hermite where the scheme is C1 at its values, chords elsewhere, decided on the
     host by `jaxsubdiv.smoothness`) and the default `levels` that follow from it are
-    static, so `FourPoint(0.18)` and `FourPoint(0.2)` run two programs.
-    `jaxsubdiv.enable_compilation_cache()` keeps
-    compiled programs on disk for later processes.
+    static, so `FourPoint(0.18)` and `FourPoint(0.2)` run two programs. The errors are
+    measured by a second program that depends only on the bucket, the number of curve
+    samples and the curve model, so fits of other schemes and settings share it.
+    `jaxsubdiv.enable_compilation_cache()` keeps compiled programs on disk for later
+    processes.
 
     **Arguments:**
 
