@@ -104,8 +104,8 @@ def markdown(report: dict) -> str:
              f"after {report['load_after']}; {report['repeat']} fresh processes per tree and "
              "program, interleaved. Medians (min-max) in seconds; `first` is the first call "
              "(trace, lower, compile, run), `warm` the median of five later calls, `value` "
-             "what the program computed (`rms`, or the gradient's first entry) in the first "
-             "run.", ""]
+             "what the program computed (`rms`, or the gradient's first entry; in the first "
+             "of the runs).", ""]
     labels = [tree["label"] for tree in report["trees"]]
     lines += ["| program | tree | first | trace | lower | compile | warm | first / "
               f"{labels[0]} | value |", "|---|---|---:|---:|---:|---:|---:|---:|---:|"]

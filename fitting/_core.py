@@ -208,9 +208,11 @@ def measure_one(curve, tangents, target, weights, count, feet, center, scale, *,
 
     A function of the curve's samples alone, not of the scheme or the fit's settings:
     `fitting.fit` compiles it as a program of its own, which fits of other schemes,
-    control point counts, parameters and solvers share when their sample-count bucket,
-    number of curve samples and curve model agree (the errors are about 40% of a fit's
-    compile time when compiled with the solve: `benchmarks/results/fit_parts.md`)."""
+    control-point counts and fitted parameters share when their shapes agree (dimension,
+    dtype, sample-count bucket, number of curve samples), and the boundary, the curve
+    model and (closed Hermite curves: whether the solver tracked feet, as the default
+    one does) too. The errors are about 40% of a fit's compile time when compiled with
+    the solve (`benchmarks/results/fit_parts.md`)."""
     errors = curve_errors(curve, tangents, target, weights, count, feet, closed=closed)
     # Measured in units of the outline's size, then scaled: squares of distances in the
     # caller's units could overflow or underflow (size 1e160 or 1e-160).

@@ -1,4 +1,4 @@
-"""[`fitting.fit`][]: one outline, checked on the host, fitted by one compiled program.
+"""[`fitting.fit`][]: one outline, checked on the host, fitted by two compiled programs.
 
 The rest of the package, by concern: `_result` (what a fit returns, its statuses),
 `_checks` (host-side validation, sizes and memory), `_core` (the jitted single fit and
@@ -90,8 +90,9 @@ def fit(
     model (Hermite where the scheme is C1 at its values, chords elsewhere, decided on the
     host by `jaxsubdiv.smoothness`) and the default `levels` that follow from it are
     static, so `FourPoint(0.18)` and `FourPoint(0.2)` run two programs. The errors are
-    measured by a second program that depends only on the bucket, the number of curve
-    samples and the curve model, so fits of other schemes and settings share it.
+    measured by a second program that depends only on the shapes (bucket, number of
+    curve samples, dimension, dtype), the boundary and the curve model, so fits of
+    other schemes, control-point counts and settings share it.
     `jaxsubdiv.enable_compilation_cache()` keeps compiled programs on disk for later
     processes.
 

@@ -5,9 +5,9 @@ step count and loss as traced values; a `jax.debug.callback` then prints them on
 host at every step (under `vmap` reduced over the batch first, so one line). A batch:
 one line counting the outlines done, updated as each finishes (`items_done`).
 
-On a terminal the line is rewritten in place (`\r`); when stderr is a file or a pipe,
-rewrites would pile up in it (15 lines for a 4 s fit), so only the final state is
-written there (`_live`).
+On a terminal (or in Jupyter) the line is rewritten in place (`\r`); when stderr is a
+file or a pipe, rewrites would pile up in it (15 lines for a 4 s fit), so only the
+final state is written there, once, when the fit or batch ends (`_live`, `finish`).
 
 Host callbacks keep JAX from writing a program to its persistent compilation cache, so
 `fit(progress="time")` shows only the elapsed time instead, from a host thread
@@ -24,31 +24,34 @@ import jax
 import jax.numpy as jnp
 
 
-_state = {"last": 0.0, "start": 0.0}
+_state = {"last": 0.0, "start": 0.0, "line": ""}
 
 
 def _live() -> bool:
-    """Whether stderr is a terminal, where a line can be rewritten in place."""
+    """Whether stderr shows a line rewritten in place (`\r`): a terminal, or a Jupyter
+    kernel's stream (which reports no terminal but renders `\r`)."""
     try:
-        return sys.stderr.isatty()
+        return sys.stderr.isatty() or type(sys.stderr).__module__.startswith("ipykernel")
     except (AttributeError, ValueError):  # replaced by an object without it, or closed
         return False
 
 
+def _update(line: str, now: float, force: bool = False) -> None:
+    """Keep `line` as the display's state; on a live stream, show it in place (at most
+    ten times a second, unless `force`). Elsewhere `finish` writes the last one."""
+    _state["line"] = line
+    if _live() and (force or now - _state["last"] >= 0.1):
+        _state["last"] = now
+        sys.stderr.write("\r" + line)
+        sys.stderr.flush()
+
+
 def _show(step, loss):
-    if not _live():  # no final step is known here: the caller reports the result
-        return
     now = time.perf_counter()
     if int(step) == 0:
-        _state["start"] = now
-    elif now - _state["last"] < 0.1:  # at most ten updates a second
-        return
-    _state["last"] = now
-    sys.stderr.write(
-        f"\r  fitting: step {int(step):4d}  loss {float(loss):.3e}  "
-        f"{now - _state['start']:6.1f} s"
-    )
-    sys.stderr.flush()
+        _state["start"], _state["last"] = now, 0.0
+    _update(f"  fitting: step {int(step):4d}  loss {float(loss):.3e}  "
+            f"{now - _state['start']:6.1f} s", now)
 
 
 def progress_verbose(**kwargs):
@@ -64,21 +67,14 @@ def progress_verbose(**kwargs):
 def begin():
     """Start the clock of a batch's progress line."""
     _state["start"] = _state["last"] = time.perf_counter()
+    _state["line"] = ""
 
 
 def _show_items(done, total):
-    now = time.perf_counter()
-    finished = int(done) >= int(total)
     # (The first report of a sharded batch already counts one outline per device.)
-    if not finished and (now - _state["last"] < 0.1 or not _live()):
-        return
-    _state["last"] = now
-    begin, end = ("\r", "") if _live() else ("", "\n")  # rewritten in place, or a line
-    sys.stderr.write(
-        f"{begin}  fitting: {int(done):6d} / {int(total)} outlines  "
-        f"{now - _state['start']:6.1f} s{end}"
-    )
-    sys.stderr.flush()
+    now = time.perf_counter()
+    _update(f"  fitting: {int(done):6d} / {int(total)} outlines  "
+            f"{now - _state['start']:6.1f} s", now, force=int(done) >= int(total))
 
 
 def items_done(index, devices: int, total):
@@ -109,11 +105,13 @@ def compiling(key, samples: int) -> None:
 
 
 def finish():
-    """End the progress line (on a terminal; elsewhere per-step lines were not written)."""
-    if not _live():
-        return
-    sys.stderr.write("\n")
-    sys.stderr.flush()
+    """End the progress line with its last state: rewritten in place on a live stream,
+    else written once, as one line (so a file or pipe gets one line per fit or batch,
+    however many updates or shares reported)."""
+    if _state["line"]:
+        sys.stderr.write(("\r" if _live() else "") + _state["line"] + "\n")
+        sys.stderr.flush()
+    _state["line"] = ""
 
 
 @contextlib.contextmanager
@@ -139,6 +137,6 @@ def elapsed(interval: float = 0.25):
         stop.set()
         if live:
             thread.join()
-        begin = "\r" if live else ""
-        sys.stderr.write(f"{begin}  fitting: {time.perf_counter() - start:6.1f} s, done\n")
+        prefix = "\r" if live else ""
+        sys.stderr.write(f"{prefix}  fitting: {time.perf_counter() - start:6.1f} s, done\n")
         sys.stderr.flush()

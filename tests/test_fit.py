@@ -975,14 +975,23 @@ def test_elapsed_time_rewrites_a_line_only_on_a_terminal(capfd, monkeypatch, ter
     err = capfd.readouterr().err
     assert re.fullmatch(r"(\r  fitting: +[0-9.]+ s)+\r  fitting: +[0-9.]+ s, done\n" if terminal
                         else r"  fitting: +[0-9.]+ s, done\n", err), err
-    # A batch's count: rewritten on a terminal; elsewhere only the last, as a line.
+    # A fit's steps: the last one stays, written once as a line off a terminal.
+    for step, loss in ((0, 2.0), (1, 1.0), (5, 0.5)):
+        progress._show(step, loss)
+    progress.finish()
+    err = capfd.readouterr().err
+    assert re.search(r"  fitting: step    5  loss 5\.000e-01 +[0-9.]+ s\n$", err), err
+    assert ("\r" in err) == terminal and err.count("\n") == 1 and err.count("step    0") == terminal
+    # A batch's count: rewritten on a terminal; elsewhere only the last, as a line (once,
+    # however many shares report their last item).
     progress.begin()
-    for done in (1, 2, 3):
+    for done in (1, 2, 3, 3):
         progress._show_items(done, 3)
     progress.finish()
     err = capfd.readouterr().err
     assert re.search(r"  fitting: +3 / 3 outlines +[0-9.]+ s\n$", err), err
     assert ("\r" in err) == terminal and err.count("\n") == 1
+    assert err.count("3 / 3") == (3 if terminal else 1)  # twice in place, then the end
 
 
 # --------------------------------------------------------------------------------------
@@ -1100,6 +1109,43 @@ def exported_programs(tmp_path):
     yield tmp_path / "jaxsubdiv-exported"
     jax.config.update("jax_compilation_cache_dir", previous)
     exported._LOADED.clear()
+
+
+class _Stop(Exception):
+    pass
+
+
+exported_structure_cases = [
+    (js.CubicBSpline(), {}), (js.Chaikin(), {}), (js.CubicBSpline(), dict(boundary="open")),
+    (js.CubicBSpline(), dict(boundary="clamped", pin_ends=True)),
+    (js.FourPoint(0.07), dict(fit_params=True, profile=2)),
+]
+
+
+@pytest.mark.parametrize("scheme, options", exported_structure_cases,
+                         ids=["closed-hermite", "closed-chords", "open-hermite",
+                              "clamped-pinned", "fit-params"])
+def test_exported_solve_structure_is_the_traced_one(monkeypatch, scheme, options):
+    """The exported solve returns leaves only; the structure they are put back into is
+    built by hand (`_core.solved_structure`). It must be the structure `solve_one`
+    returns (traced with `eqx.filter_eval_shape`, nothing compiled) in every configuration,
+    or arrays would land in the wrong fields."""
+    import fitting._fit as fit_module
+    from fitting import _core
+
+    seen = {}
+
+    def capture(data, init, tol, max_steps, *, objective, solver=None, progress=False):
+        traced = eqx.filter_eval_shape(_core.solve_one, data, init, tol, max_steps,
+                                       objective=objective, solver=solver)
+        seen["traced"] = jax.tree.structure(traced)
+        seen["built"] = _core.solved_structure(data.scheme, objective, data.count is not None)
+        raise _Stop
+
+    monkeypatch.setattr(fit_module, "run", capture)
+    with pytest.raises(_Stop):
+        fitting.fit(_bumpy(120), scheme, 8, **options)
+    assert seen["traced"] == seen["built"]
 
 
 def test_exported_program_gives_the_jitted_fit_and_loads_without_tracing(exported_programs):
