@@ -363,13 +363,12 @@ def newton_step(objective: Objective, y, data: FitData, model=None) -> Float[Arr
 def solved_structure(scheme, objective: Objective, counted: bool):
     """The pytree structure of `solve_one`'s `Solved` with the default solver (the fitted
     scheme has the structure of the given one; `counted`: the data have a `count`)."""
-    blank = dict.fromkeys(
-        ("control_points", "curve", "target", "weights", "center", "scale", "num_steps",
-         "status", "newton_step"), 0.0)
-    return jax.tree.structure(Solved(
-        scheme=scheme, tangents=0.0 if objective.hermite else None,
-        count=0.0 if counted else None,
-        feet=0.0 if objective.closed and objective.hermite else None, **blank))
+    varying = dict(scheme=scheme, tangents=0.0 if objective.hermite else None,
+                   count=0.0 if counted else None,
+                   feet=0.0 if objective.closed and objective.hermite else None)
+    # Every other field is one array.
+    arrays = {f.name: 0.0 for f in dataclasses.fields(Solved) if f.name not in varying}
+    return jax.tree.structure(Solved(**varying, **arrays))
 
 
 MEASURED = jax.tree.structure(dict.fromkeys(

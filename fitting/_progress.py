@@ -121,22 +121,21 @@ def elapsed(interval: float = 0.25):
     when stderr is not a terminal, only the final line."""
     start = time.perf_counter()
     stop = threading.Event()
-    live = _live()
 
     def show():
         while not stop.wait(interval):
-            sys.stderr.write(f"\r  fitting: {time.perf_counter() - start:6.1f} s")
-            sys.stderr.flush()
+            now = time.perf_counter()
+            _update(f"  fitting: {now - start:6.1f} s", now, force=True)
 
-    thread = threading.Thread(target=show, daemon=True)
-    if live:
+    # Off a live stream nothing is shown until the end: no thread.
+    thread = threading.Thread(target=show, daemon=True) if _live() else None
+    if thread is not None:
         thread.start()
     try:
         yield
     finally:
         stop.set()
-        if live:
+        if thread is not None:
             thread.join()
-        prefix = "\r" if live else ""
-        sys.stderr.write(f"{prefix}  fitting: {time.perf_counter() - start:6.1f} s, done\n")
-        sys.stderr.flush()
+        _state["line"] = f"  fitting: {time.perf_counter() - start:6.1f} s, done"
+        finish()
