@@ -126,7 +126,7 @@ def _add_force_option(parser):
                         "to share a name (refused otherwise)")
 
 
-def _add_input_options(parser, shape_samples: str):
+def _add_input_options(parser, shape_samples: str, curves: str = "SVG curves and glyphs 400"):
     parser.add_argument(
         "input", nargs="?",
         help="outline file: CSV/TXT (x,y per line), NPY/NPZ, JSON, SVG or PNG silhouette",
@@ -137,16 +137,17 @@ def _add_input_options(parser, shape_samples: str):
                         "(default: DejaVu Sans)")
     parser.add_argument(
         "--samples", type=int,
-        help="points per contour, equally spaced by arc length (default: SVG curves and "
-        f"glyphs 400; point lists and images as they are; --shape {shape_samples})",
+        help=f"points per contour, equally spaced by arc length (default: {curves}; point "
+        f"lists and images as they are; --shape {shape_samples})",
     )
 
 
-def _read_inputs(args, shape_samples: int | None = None):
+def _read_inputs(args, shape_samples: int | None = None, nodes: bool = False):
     """The outlines of INPUT, --shape or --text (exactly one of them). `shape_samples`:
     points per contour for a built-in shape and for an SVG file's contours when
     --samples is not given (None: the shape's polygon, and an SVG's straight-line
-    contours as their corners)."""
+    contours as their corners). `nodes`: without --samples, an SVG's and a glyph's
+    contours are their nodes (the drawing's own polygon) rather than samples."""
     js = _js()
     given = [
         name
@@ -168,12 +169,21 @@ def _read_inputs(args, shape_samples: int | None = None):
         if samples is not None:
             points = resample_polyline(points, samples, True)
         return [js.io.Outline(points=points, closed=True)]
+    nodes = nodes and args.samples is None
     if args.text is not None:
-        return js.io.read_outlines(text=args.text, font=args.font, samples=args.samples)
+        return js.io.read_outlines(text=args.text, font=args.font, samples=args.samples,
+                                   nodes=nodes)
     samples = args.samples
-    if samples is None and str(args.input).lower().endswith(".svg"):
+    if samples is None and not nodes and str(args.input).lower().endswith(".svg"):
         samples = shape_samples
-    return js.io.read_outlines(args.input, samples=samples)
+    return js.io.read_outlines(args.input, samples=samples, nodes=nodes)
+
+
+def _page_source(args):
+    """The input file whose page an SVG output takes (an SVG or PNG INPUT), or None."""
+    if args.input is not None and Path(args.input).suffix.lower() in (".svg", ".png"):
+        return args.input
+    return None
 
 
 def _source(args) -> str:
@@ -271,7 +281,7 @@ def _refine(args) -> int:
     scheme = _scheme(args)
     _check_output(args.output, ("csv", "txt", "npy", "npz", "json", "svg"), "-o")
     _check_output(args.plot, _picture_types, "--plot")
-    outlines = _read_inputs(args)
+    outlines = _read_inputs(args, nodes=True)
     _no_contours(args, outlines)
     _check_no_overwrite(args, [(o, p) for o, p in (("-o", args.output), ("--plot", args.plot))
                                if p])
@@ -279,10 +289,11 @@ def _refine(args) -> int:
     for outline in outlines:
         boundary = args.boundary or ("closed" if outline.closed else "open")
         points = np.asarray(js.refine(outline.points, scheme, args.levels, boundary=boundary))
-        refined.append(js.io.Outline(points=points, closed=boundary == "closed"))
+        refined.append(js.io.Outline(points, boundary == "closed", outline.group))
         print(f"{len(outline.points)} -> {len(points)} points ({boundary})")
     if args.output:
-        js.io.write_outlines(args.output, refined)
+        svg = args.output.lower().endswith(".svg")
+        js.io.write_outlines(args.output, refined, like=_page_source(args) if svg else None)
         print(f"wrote {args.output}")
     if args.plot:
         figure = _new_figure((6, 6))
@@ -301,9 +312,13 @@ def _refine(args) -> int:
 def _add_refine(sub):
     refine = sub.add_parser(
         "refine", help="refine an outline file, a text glyph or a built-in shape",
-        description="Refine the polygons of an outline file, a glyph or a built-in shape.",
+        description=(
+            "Refine the polygons of an outline file, a glyph or a built-in shape. An SVG "
+            "drawing's and a glyph's polygons are their nodes (where their segments meet, "
+            "as a vector editor shows them), unless --samples is given."
+        ),
     )
-    _add_input_options(refine, "its polygon as it is")
+    _add_input_options(refine, "its polygon as it is", "SVG files and glyphs: their nodes")
     _add_scheme_options(refine, "cubic-bspline")
     refine.add_argument("--levels", type=int, default=5, help="refinement levels (default: 5)")
     refine.add_argument("--boundary", choices=["closed", "open", "clamped"],
@@ -407,7 +422,7 @@ def _fit(args) -> int:
         outputs += [("-o", _numbered(args.output, i, count) if per_contour else args.output)
                     for i in range(count if per_contour else 1)]
     if args.svg:
-        outputs += [("--svg", _numbered(args.svg, i, count)) for i in range(count)]
+        outputs.append(("--svg", args.svg))
     if args.plot:
         outputs.append(("--plot", args.plot))
     _check_no_overwrite(args, outputs)
@@ -472,22 +487,22 @@ def _fit(args) -> int:
             }
             js.io.write_result_json(path, result, info=info)
             print(f"wrote {path}")
-    elif args.output:
+    elif args.output and not args.output.lower().endswith(".svg"):
         curves = [
             js.io.Outline(points=np.asarray(r.curve, np.float64), closed=r.boundary == "closed")
             for r in results
         ]
         js.io.write_outlines(args.output, curves)
         print(f"wrote {args.output}")
-    if args.svg:
-        for i, result in enumerate(results):
-            path = _numbered(args.svg, i, count)
-            exact = js.io.write_curve_svg(
-                path, np.asarray(result.control_points), result.scheme,
-                boundary=result.boundary,
-            )
-            kind = "exact Bezier segments" if exact else "a polyline of exact limit points"
-            print(f"wrote {path} ({kind})")
+    # An SVG output, by -o or --svg, is the fitted shape: exact curves where there are.
+    for path in [p for p in (args.output, args.svg) if p and p.lower().endswith(".svg")]:
+        exact = js.io.write_curve_svg(
+            path, [np.asarray(r.control_points) for r in results],
+            [r.scheme for r in results], boundary=[r.boundary for r in results],
+            groups=[o.group for o in outlines], like=_page_source(args),
+        )
+        kind = "exact Bezier segments" if exact else "polylines of exact limit points"
+        print(f"wrote {path} ({kind}, {_shapes(outlines)})")
     if args.plot:
         from .plot import plot_fit
 
@@ -530,6 +545,12 @@ def _fit(args) -> int:
     return 1 if failed else 0
 
 
+def _shapes(outlines) -> str:
+    """'1 shape', '3 shapes': how many `<path>`s an SVG of these outlines has."""
+    count = len({("own", i) if o.group is None else o.group for i, o in enumerate(outlines)})
+    return f"{count} shape{'s' if count != 1 else ''}"
+
+
 def _add_fit(sub):
     fit = sub.add_parser(
         "fit", help="fit a subdivision curve to every contour of an outline",
@@ -566,9 +587,11 @@ def _add_fit(sub):
     fit.add_argument("--output", "-o",
                      help=".json: the result (scheme, parameters, control points, errors; "
                      "one file per contour, numbered, when there are several); .csv, .txt, "
-                     ".npy, .npz or .svg: the fitted curves' points")
-    fit.add_argument("--svg", help="SVG of the fitted curve (exact Bezier segments for "
-                     "cubic-bspline and chaikin; numbered per contour when there are several)")
+                     ".npy or .npz: the fitted curves' points; .svg: as --svg")
+    fit.add_argument("--svg", help="SVG of the fitted shape: one file, one path per shape of "
+                     "the input (holes kept, even-odd fill), exact Bezier segments for "
+                     "cubic-bspline, chaikin and lane-riesenfeld up to degree 3; an SVG or PNG "
+                     "input's page and coordinates")
     fit.add_argument("--plot", help="picture (PNG, PDF, ...) of the fit: samples colored by "
                      "their distance to the curve, control polygon, curve")
     fit.add_argument("--quiet", "-q", action="store_true",

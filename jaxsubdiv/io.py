@@ -61,7 +61,13 @@ from ._io.result import (
     read_result_json as _read_result,
     write_result_json as _write_result,
 )
-from ._io.svg import read_svg, write_bezier_svg, write_svg
+from ._io.svg import (
+    bezier_subpath,
+    polyline_subpath,
+    read_svg,
+    write_drawing,
+    write_svg,
+)
 from ._refine import _check_boundary
 from ._scheme.base import AbstractCurveScheme
 
@@ -95,6 +101,7 @@ def read_outlines(
     text: str | None = None,
     font: str | None = None,
     threshold: float = 0.5,
+    nodes: bool = False,
 ) -> list[Outline]:
     """Read the outlines (contours) of a file, or of a text glyph.
 
@@ -129,6 +136,10 @@ def read_outlines(
       `"&"`; the font size is 1.
     - `font`: with `text`, a font family known to matplotlib's font manager or a font
       file; default matplotlib's default font (DejaVu Sans).
+    - `nodes`: for SVG and glyphs, each contour's nodes (the points where its segments
+      meet, as a vector editor shows them) instead of points sampled on its curves: the
+      drawing's own control polygon, e.g. to refine it. Point lists and PNG contours are
+      their own nodes. Not with `samples`.
     - `threshold`: for PNG, the gray level (or alpha level, for an image with
       transparency) between 0 and 1 that separates the silhouette from the background.
       Which side is the background is decided by the image border.
@@ -144,10 +155,14 @@ def read_outlines(
     `ValueError` or `TypeError` for a bad argument (`samples` above `MAX_POINTS`, ...).
     """
     samples = check_samples(samples)
+    if not isinstance(nodes, (bool, np.bool_)):
+        raise TypeError(f"`nodes` must be True or False, got {nodes!r}.")
+    if nodes and samples is not None:
+        raise ValueError("pass `nodes=True` or `samples`, not both: nodes are not resampled.")
     if text is not None:
         if path is not None:
             raise ValueError("pass either `path` or `text=`, not both.")
-        return read_glyph(text, font=font, samples=samples)
+        return read_glyph(text, font=font, samples="nodes" if nodes else samples)
     if path is None:
         raise ValueError("pass a file `path`, or `text=` for a glyph.")
     check_path(path)
@@ -155,7 +170,7 @@ def read_outlines(
         raise ValueError("`font` is only used with `text=`.")
     kind = _kind(path, kind, KINDS)
     if kind == "svg":
-        return _at_least_one(path, read_svg(path, samples))
+        return _at_least_one(path, read_svg(path, "nodes" if nodes else samples))
     if kind == "png":
         return _at_least_one(path, read_image(path, threshold=threshold, samples=samples))
     reader = {
@@ -189,13 +204,16 @@ def write_outlines(
     outlines: list[Outline],
     *,
     kind: Literal["csv", "txt", "npy", "npz", "json", "svg"] | None = None,
+    like: str | os.PathLike | None = None,
 ) -> None:
     """Write outlines in any format `read_outlines` reads (except PNG).
 
     Numbers are written in full precision, so reading the file back gives the same
     numbers. A `.npy` file holds one outline and no `closed` flag (it reads back
-    closed); the other formats hold several and keep the flag. SVG gets one
-    polyline `<path>` per outline.
+    closed); the other formats hold several and keep the flag. SVG gets one `<path>`
+    of polylines per shape (the outlines of one `group`, see
+    [`jaxsubdiv.io.Outline`][]; an outline without a group is a shape of its own),
+    filled by the even-odd rule when all its outlines are closed, else stroked.
 
     **Arguments:**
 
@@ -204,6 +222,8 @@ def write_outlines(
       nested lists); an array is a closed outline, as `Outline(points)`. A single
       `Outline` or `(m, 2)` array is one outline.
     - `kind`: the format, overriding the extension.
+    - `like`: for SVG, the SVG or PNG file the outlines came from, whose page and
+      coordinates to take (as for [`jaxsubdiv.io.write_curve_svg`][]).
 
     **Raises:** `TypeError` if `outlines` is not a list (or other sequence) of them;
     `ValueError` if it is empty; [`jaxsubdiv.io.OutlineError`][] for points that are
@@ -222,8 +242,10 @@ def write_outlines(
     outlines = list(outlines)
     if not outlines:
         raise ValueError("`outlines` is empty: nothing to write.")
+    if like is not None and kind != "svg":
+        raise ValueError(f"`like` is only used for SVG files, not {kind.upper()}.")
     outlines = [
-        make_outline(path, o.points, o.closed, f"outline {i}")
+        make_outline(path, o.points, o.closed, f"outline {i}", o.group)
         if isinstance(o, Outline)
         else make_outline(path, o, True, f"outline {i}")
         for i, o in enumerate(outlines)
@@ -237,7 +259,7 @@ def write_outlines(
     elif kind == "json":
         write_json(path, outlines)
     else:
-        write_svg(path, outlines)
+        write_svg(path, outlines, like)
 
 
 def write_points(
@@ -258,46 +280,90 @@ def write_points(
 
 def write_curve_svg(
     path: str | os.PathLike,
-    control_points: Float[ArrayLike, "n 2"],
-    scheme: AbstractCurveScheme,
+    control_points: Float[ArrayLike, "n 2"] | list[Float[ArrayLike, "_ 2"]],
+    scheme: AbstractCurveScheme | list[AbstractCurveScheme],
     *,
-    boundary: Literal["closed", "open", "clamped"] = "closed",
+    boundary: Literal["closed", "open", "clamped"] | list[str] = "closed",
     levels: int | None = None,
+    groups: list[int | None] | None = None,
+    like: str | os.PathLike | None = None,
 ) -> bool:
-    """Write the limit curve of a control polygon as an SVG path.
+    """Write the limit curve of a control polygon, or of several, as one SVG file.
 
     When the limit curve is a uniform B-spline of degree at most 3 (the mask is
     $\\binom{d+1}{k}/2^d$: [`jaxsubdiv.CubicBSpline`][], [`jaxsubdiv.Chaikin`][],
-    `LaneRiesenfeld(1, 2 or 3)`, ...) the path is the exact curve: one cubic (or
+    `LaneRiesenfeld(1, 2 or 3)`, ...) its path is the exact curve: one cubic (or
     quadratic, or straight) Bezier segment per span, for every boundary. Otherwise it is
     a dense polyline through exact limit points ([`jaxsubdiv.limit_points`][] of
     `refine(control_points, scheme, levels)`).
 
+    Several curves are the subpaths of one shape (a glyph's outer contour and its
+    holes), written as one `<path>` filled by the even-odd rule, so that a vector
+    editor opens the fitted shape with its holes; a shape with an open curve is stroked
+    instead of filled. `groups` splits the curves into several shapes.
+
     **Arguments:**
 
     - `path`: the SVG file to write.
-    - `control_points`: the control polygon, `(n, 2)`.
-    - `scheme`: the subdivision scheme.
-    - `boundary`: `"closed"`, `"open"` or `"clamped"`, as for [`jaxsubdiv.refine`][].
-    - `levels`: refinement levels for the polyline (default: enough for about 2048
+    - `control_points`: the control polygon, `(n, 2)`, or a list of them.
+    - `scheme`: the subdivision scheme, or a list of them, one per polygon.
+    - `boundary`: `"closed"`, `"open"` or `"clamped"`, as for [`jaxsubdiv.refine`][];
+      or a list of them, one per polygon.
+    - `levels`: refinement levels for the polylines (default: enough for about 2048
       points); not used for exact curves.
+    - `groups`: with several polygons, the shape each belongs to (an int, or None for a
+      shape of its own; see [`jaxsubdiv.io.Outline`][]'s `group`): one `<path>` per
+      shape. Default: all in one shape.
+    - `like`: the SVG or PNG file the outline came from. The file written takes its
+      page (`width`, `height`, `viewBox`; a PNG's pixels) and puts the curves in its
+      coordinates, so that they lie exactly over the input in a vector editor.
+      Default: a page fitted around the curves.
 
-    **Returns:** True when the file holds the exact curve (Bezier segments), False for
-    a polyline.
+    **Returns:** True when the file holds the exact curves (Bezier segments), False
+    when some curve is a polyline.
     """
     check_path(path)
-    points = make_outline(path, control_points, False, "the control points").points
-    boundary = _check_boundary(boundary, scheme)
-    degree = bspline_degree(scheme)
-    minimum = {1: 2, 2: 3, 3: 4}.get(degree, 0) if boundary == "open" else 2
-    if degree is not None and len(points) >= minimum:
-        with np.errstate(over="ignore", invalid="ignore"):  # checked by write_bezier_svg
-            beziers = bezier_segments(points, degree, boundary)
-        write_bezier_svg(path, beziers, None, boundary == "closed")
-        return True
-    curve = dense_curve(points, scheme, boundary, levels)
-    write_bezier_svg(path, None, curve, boundary == "closed")
-    return False
+    several = isinstance(control_points, (list, tuple)) and (
+        len(control_points) == 0 or np.ndim(control_points[0]) == 2
+    )
+    polygons = list(control_points) if several else [control_points]
+    if not polygons:
+        raise ValueError("`control_points` is empty: no curve to write.")
+    count = len(polygons)
+
+    def per_curve(value, name, single):
+        if not isinstance(value, (list, tuple)):
+            return [value] * count
+        if not several or len(value) != count:
+            raise ValueError(
+                f"`{name}` must be one {single} or a list of one per control polygon "
+                f"({count}), got a list of {len(value)}."
+            )
+        return list(value)
+
+    schemes = per_curve(scheme, "scheme", "scheme")
+    boundaries = per_curve(boundary, "boundary", "boundary")
+    groups = [0] * count if groups is None else per_curve(groups, "groups", "list")
+    subpaths, exact = [], True
+    for i, (polygon, scheme, boundary, group) in enumerate(
+        zip(polygons, schemes, boundaries, groups)
+    ):
+        what = "the control points" if count == 1 else f"control polygon {i}"
+        points = make_outline(path, polygon, False, what).points
+        boundary = _check_boundary(boundary, scheme)
+        closed = boundary == "closed"
+        degree = bspline_degree(scheme)
+        minimum = {1: 2, 2: 3, 3: 4}.get(degree, 0) if boundary == "open" else 2
+        if degree is not None and len(points) >= minimum:
+            with np.errstate(over="ignore", invalid="ignore"):  # checked by write_drawing
+                beziers = bezier_segments(points, degree, boundary)
+            subpaths.append(bezier_subpath(beziers, closed, group))
+        else:
+            curve = dense_curve(points, scheme, boundary, levels)
+            subpaths.append(polyline_subpath(curve, closed, group))
+            exact = False
+    write_drawing(path, subpaths, like, "the curve")
+    return exact
 
 
 def write_result_json(path: str | os.PathLike, result, *, info: dict | None = None) -> None:

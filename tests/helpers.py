@@ -211,21 +211,24 @@ def periodic_bspline(control, degree):
 
 
 def svg_bezier_paths(text):
-    """Every `<path d=...>` of an SVG as a list of Bezier segments, each an array
-    `(degree + 1, 2)` in the path's own coordinates. Knows the absolute M, L, Q, C and Z
-    that `jaxsubdiv.io` writes, and nothing else (anything else fails the test)."""
+    """Every subpath of every `<path d=...>` of an SVG, in order, as a list of Bezier
+    segments, each an array `(degree + 1, 2)` in the path's own coordinates. Knows the
+    absolute M, L, Q, C and Z that `jaxsubdiv.io` writes, and nothing else (anything else
+    fails the test)."""
     import re
 
-    paths = []
+    subpaths = []
     for d in re.findall(r'<path[^>]*\sd="([^"]*)"', text):
         tokens = re.findall(r"[A-Za-z]|[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", d)
-        segments, i, current, start = [], 0, None, None
+        segments, i, current, start = None, 0, None, None
         arity = {"L": 1, "Q": 2, "C": 3}
         while i < len(tokens):
             letter = tokens[i]
             i += 1
             if letter == "M":
                 current = start = np.array([float(tokens[i]), float(tokens[i + 1])])
+                segments = []
+                subpaths.append(segments)
                 i += 2
             elif letter in arity:
                 k = arity[letter]
@@ -239,8 +242,7 @@ def svg_bezier_paths(text):
                 current = start
             else:
                 raise AssertionError(f"unexpected path command {letter!r} in {d[:80]!r}")
-        paths.append(segments)
-    return paths
+    return subpaths
 
 
 def bezier_evaluate(segment, u):

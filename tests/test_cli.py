@@ -69,10 +69,15 @@ def _parameter_shift(curve, point, period, step):
     return grid[np.argmin(np.linalg.norm(curve(grid) - point, axis=1))]
 
 
-def _check_bezier_svg(svg_path, control, degree):
-    """The SVG's Bezier segments sampled by de Casteljau against scipy's periodic
-    B-spline of `control`; returns the largest distance relative to the curve's size."""
-    (segments,) = svg_bezier_paths(Path(svg_path).read_text())
+def _check_bezier_svg(svg_path, control, degree, subpath=None):
+    """The SVG's Bezier segments (of its only subpath, or of subpath `subpath`) sampled
+    by de Casteljau against scipy's periodic B-spline of `control`; returns the largest
+    distance relative to the curve's size."""
+    subpaths = svg_bezier_paths(Path(svg_path).read_text())
+    if subpath is None:
+        (segments,) = subpaths
+    else:
+        segments = subpaths[subpath]
     assert len(segments) == len(control)
     assert all(len(s) == degree + 1 for s in segments)  # cubic: C, quadratic: Q
     curve = periodic_bspline(control, degree)
@@ -131,8 +136,9 @@ def test_fit_circle_from_csv_with_the_installed_script(tmp_path):
 
 def test_fit_glyph_with_a_hole_json_reproduces_the_curve(capsys, tmp_path):
     """'o' has two contours, fitted separately; each JSON rebuilds the written curve, and
-    the SVGs are exact cubic Beziers. (The same fit settings as the demo test below, so
-    the two share one compilation.)"""
+    the SVG is one path of two subpaths, exact cubic Beziers, filled even-odd (the hole
+    stays a hole). (The same fit settings as the demo test below, so the two share one
+    compilation.)"""
     args = ("fit", "--text", "o", "--n", 16, "--samples", 200, "--quiet")
     status, out, err = cli(capsys, *args, "-o", tmp_path / "o.json", "--svg",
                            tmp_path / "o.svg", "--plot", tmp_path / "o.png")
@@ -165,7 +171,10 @@ def test_fit_glyph_with_a_hole_json_reproduces_the_curve(capsys, tmp_path):
         shift = _parameter_shift(spline, points[0], len(control), 0.5 / per_unit)
         expected = spline(shift + np.arange(len(points)) / per_unit)
         assert np.abs(points - expected).max() < 1e-12
-        assert _check_bezier_svg(tmp_path / f"o-{i + 1}.svg", control, 3) < 1e-9
+        assert _check_bezier_svg(tmp_path / "o.svg", control, 3, subpath=i) < 1e-9
+    svg = (tmp_path / "o.svg").read_text()
+    assert svg.count("<path") == 1 and 'fill-rule="evenodd"' in svg
+    assert len(svg_bezier_paths(svg)) == 2
     assert _pixels_vary(tmp_path / "o.png")
 
 
@@ -324,21 +333,35 @@ def test_refine_png_silhouette(capsys, tmp_path):
     assert _pixels_vary(tmp_path / "plot.png")
 
 
-def test_refine_text_glyph_has_one_outline_per_contour(capsys, tmp_path):
+def test_refine_text_glyph_refines_its_nodes(capsys, tmp_path):
+    """`refine --text o` refines the glyph's own nodes (the on-curve points of its font
+    outline, read here from matplotlib's path codes): one level of the cubic B-spline
+    gives the (1, 6, 1) / 8 vertex points and the edge midpoints of that polygon."""
+    from matplotlib.path import Path as MplPath
     from matplotlib.textpath import TextPath
 
+    contours = []
+    for vertices, code in TextPath((0, 0), "o", size=1.0).iter_segments(
+        curves=True, simplify=False
+    ):
+        if code == MplPath.MOVETO:
+            contours.append([vertices[-2:]])
+        elif code != MplPath.CLOSEPOLY:
+            contours[-1].append(vertices[-2:])  # a segment's last point is on the curve
+    contours = [np.array(c[:-1] if np.allclose(c[0], c[-1]) else c) for c in contours]
     out = tmp_path / "o.npz"
     status, stdout, err = cli(capsys, "refine", "--text", "o", "--font", "DejaVu Sans",
                               "--scheme", "cubic-bspline", "--levels", 1, "-o", out)
     assert status == 0, err
-    assert stdout.splitlines()[:2] == ["400 -> 800 points (closed)"] * 2
+    assert stdout.splitlines()[:2] == [f"{len(c)} -> {2 * len(c)} points (closed)"
+                                       for c in contours]
     data = np.load(out)
-    outer = max((data["points_0"], data["points_1"]), key=lambda p: np.ptp(p, axis=0).prod())
-    # The refined outer contour spans the glyph's extent (matplotlib's own), less the
-    # little that smoothing 400 samples takes off.
-    extents = TextPath((0, 0), "o", size=1.0).get_extents()
-    np.testing.assert_allclose(outer.min(axis=0), [extents.x0, extents.y0], atol=2e-3)
-    np.testing.assert_allclose(outer.max(axis=0), [extents.x1, extents.y1], atol=2e-3)
+    for i, nodes in enumerate(contours):
+        before, after = np.roll(nodes, 1, axis=0), np.roll(nodes, -1, axis=0)
+        expected = np.empty((2 * len(nodes), 2))
+        expected[0::2] = (before + 6 * nodes + after) / 8
+        expected[1::2] = (nodes + after) / 2
+        np.testing.assert_allclose(data[f"points_{i}"], expected, rtol=0, atol=1e-12)
 
 
 def test_refine_file_matches_plain_python_chaikin(capsys, tmp_path):
@@ -569,6 +592,8 @@ def test_an_output_never_replaces_the_input_or_another_output(capsys, tmp_path):
     before = source.read_text()
     other = tmp_path / "sub" / ".." / "in.csv"
     (tmp_path / "sub").mkdir()
+    two = tmp_path / "c-2.json"
+    two.write_text(json.dumps({"outlines": [_circle(12).tolist(), _circle(12, 1.0).tolist()]}))
     refused = [
         (("refine", source, "-o", source), "-o", "is the input file"),
         (("refine", source, "-o", other), "-o", "is the input file"),
@@ -577,17 +602,16 @@ def test_an_output_never_replaces_the_input_or_another_output(capsys, tmp_path):
          "-o and --svg", "both write"),
         (("refine", source, "-o", tmp_path / "r.svg", "--plot", tmp_path / "r.svg"),
          "-o and --plot", "both write"),
-        # Two contours: -o numbers its JSON files c-1.json, c-2.json; so does --svg.
-        (("fit", "--text", "o", "--n", 4, "-o", tmp_path / "c.svg",
-          "--svg", tmp_path / "c-svg.svg", "--plot", tmp_path / "c-svg-2.svg"),
-         "--svg and --plot", "both write"),
+        # Two contours: -o numbers its JSON files c-1.json, c-2.json, and c-2.json is
+        # the input.
+        (("fit", two, "--n", 4, "-o", tmp_path / "c.json"), "-o", "is the input file"),
     ]
     for args, options, words in refused:
         status, out, err = cli(capsys, *args)
         assert status == 2 and options in err and words in err and "--force" in err, (args, err)
         assert len(err.strip().splitlines()) == 1 and out == ""
     assert source.read_text() == before
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.csv", "sub"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c-2.json", "in.csv", "sub"]
     status, out, err = cli(capsys, "refine", source, "--levels", 1, "-o", source, "--force")
     assert status == 0, err
     assert len(_table(source)) == 24  # 12 points, one cubic B-spline level

@@ -14,6 +14,7 @@ import zlib
 import matplotlib.image
 import numpy as np
 import pytest
+from helpers import svg_bezier_paths
 
 import jaxsubdiv as js
 import jaxsubdiv.io as jio
@@ -387,6 +388,119 @@ def test_curve_svg_polyline_otherwise(tmp_path):
     # An interpolating scheme: the control points are on the polyline, every 8th point.
     np.testing.assert_allclose(outline.points[::8], POLYGON, atol=1e-12)
     assert outline.closed and len(outline.points) == 8 * len(POLYGON)
+
+
+def _page(text):
+    """The root's attributes and the group transform of an SVG written here."""
+    root = re.search(r"<svg ([^>]*)>", text).group(1)
+    attributes = dict(re.findall(r'(\w+)="([^"]*)"', root))
+    return attributes, re.search(r'<g transform="([^"]*)"', text).group(1)
+
+
+def _apply(transform, points):
+    """SVG's `matrix(a b c d e f)` or `scale(1,-1)` applied to points (SVG 1.1, 7.4)."""
+    if transform == "scale(1,-1)":
+        a, b, c, d, e, f = 1, 0, 0, -1, 0, 0
+    else:
+        a, b, c, d, e, f = (float(v) for v in re.match(r"matrix\(([^)]*)\)", transform)
+                            .group(1).split())
+    return np.stack([a * points[:, 0] + c * points[:, 1] + e,
+                     b * points[:, 0] + d * points[:, 1] + f], axis=1)
+
+
+def test_several_curves_are_one_shape_with_holes(tmp_path):
+    """Several control polygons are the subpaths of one `<path>` filled even-odd, each
+    exact and in order; `groups` makes one `<path>` per shape; per-curve schemes and
+    boundaries; an open curve's shape is stroked, not filled."""
+    hole = 0.3 * POLYGON + 0.4
+    path = tmp_path / "shape.svg"
+    assert jio.write_curve_svg(path, [POLYGON, hole], js.CubicBSpline()) is True
+    text = path.read_text()
+    assert text.count("<path") == 1 and 'fill-rule="evenodd"' in text
+    subpaths = svg_bezier_paths(text)
+    for segments, polygon in zip(subpaths, [POLYGON, hole]):
+        # Uniform cubic B-spline: span i starts at (p[i-1] + 4 p[i] + p[i+1]) / 6.
+        starts = (np.roll(polygon, 1, 0) + 4 * polygon + np.roll(polygon, -1, 0)) / 6
+        np.testing.assert_allclose([s[0] for s in segments], starts, rtol=0, atol=1e-12)
+    assert jio.write_curve_svg(
+        path, [POLYGON, hole, POLYGON + 3], [js.CubicBSpline(), js.Chaikin(), js.FourPoint()],
+        boundary=["closed", "closed", "open"], groups=[0, 0, 1], levels=3,
+    ) is False  # the four-point curve is a polyline
+    text = path.read_text()
+    paths = re.findall(r"<path [^>]*>", text)
+    assert len(paths) == 2 and "evenodd" in paths[0] and 'fill="none"' in paths[1]
+    assert [len(s) for s in svg_bezier_paths(text)[:2]] == [len(POLYGON), len(hole)]
+    assert " Q " in paths[0] and " C " in paths[0]
+    with pytest.raises(ValueError, match=r"`scheme` must be one scheme or a list of one per "
+                       r"control polygon \(2\), got a list of 3"):
+        jio.write_curve_svg(path, [POLYGON, hole], [js.Chaikin()] * 3)
+
+
+def test_svg_output_keeps_an_svg_inputs_page_and_coordinates(tmp_path):
+    """Written `like` the SVG it was read from, a drawing lies over it: the root's page
+    attributes are copied, and the written points, mapped by the written transform, are
+    the input's own coordinates after its transforms (written out here by hand)."""
+    source = _write(tmp_path, "in.svg", (
+        '<svg xmlns="http://www.w3.org/2000/svg" width="40mm" height="30mm" '
+        'viewBox="-5 0 80 60" preserveAspectRatio="xMinYMin">'
+        '<g transform="translate(10,20)"><path d="M 0 0 C 10 0 20 10 20 20 L 0 20 Z"/>'
+        '<path d="M 30 0 L 40 0 L 40 10 Z"/></g></svg>'))
+    outlines = jio.read_outlines(source, nodes=True)
+    assert [o.group for o in outlines] == [0, 1]
+    np.testing.assert_array_equal(outlines[0].points, [[10, -20], [30, -40], [10, -40]])
+    out = tmp_path / "out.svg"
+    jio.write_outlines(out, outlines, like=source)
+    text = out.read_text()
+    attributes, transform = _page(text)
+    assert {k: attributes[k] for k in ("width", "height", "viewBox", "preserveAspectRatio")} \
+        == {"width": "40mm", "height": "30mm", "viewBox": "-5 0 80 60",
+            "preserveAspectRatio": "xMinYMin"}
+    (first,), (second,) = svg_bezier_paths(text)[:1], svg_bezier_paths(text)[1:]
+    np.testing.assert_array_equal(_apply(transform, np.array([s[0] for s in first])),
+                                  [[10, 20], [30, 40], [10, 40]])
+    np.testing.assert_array_equal(_apply(transform, np.array([s[0] for s in second])),
+                                  [[40, 20], [50, 20], [50, 30]])
+    assert text.count("<path") == 2  # one per input shape
+    # Read back: the same outlines and shapes.
+    again = jio.read_outlines(out, nodes=True)
+    assert [o.group for o in again] == [0, 1]
+    for a, b in zip(again, outlines):
+        np.testing.assert_array_equal(a.points, b.points)
+
+
+def test_svg_output_keeps_a_png_inputs_pixels(tmp_path):
+    """A silhouette's fitted outline written `like` its PNG is on the image's pixel
+    grid: a filled block of rows 10-29 and columns 5-44 is the page's rectangle
+    [5, 45] x [10, 30] (its contour runs halfway between pixel centers, i.e. on the
+    pixels' edges), on a page of the image's size."""
+    image = np.ones((40, 60))
+    image[10:30, 5:45] = 0.0
+    source = tmp_path / "block.png"
+    matplotlib.image.imsave(source, image, cmap="gray", vmin=0, vmax=1)
+    (outline,) = jio.read_outlines(source)
+    out = tmp_path / "block.svg"
+    jio.write_outlines(out, [outline], like=source)
+    attributes, transform = _page(out.read_text())
+    assert (attributes["width"], attributes["height"], attributes["viewBox"]) == \
+        ("60", "40", "0 0 60 40")
+    (segments,) = svg_bezier_paths(out.read_text())
+    page = _apply(transform, np.array([s[0] for s in segments]))
+    np.testing.assert_allclose(page.min(axis=0), [5, 10], atol=1e-12)
+    np.testing.assert_allclose(page.max(axis=0), [45, 30], atol=1e-12)
+
+
+def test_nodes_are_where_segments_meet(tmp_path):
+    """`nodes=True`: an SVG contour's on-curve points as written in the file (curves,
+    arcs, lines; relative commands), not samples; refused together with `samples`."""
+    d = "M 0 0 C 1 0 2 1 2 2 Q 1 3 0 2 A 1 1 0 0 1 -1 1 l 0 -1 z M 5 5 L 6 5 L 6 7"
+    path = _write(tmp_path, "nodes.svg", _svg(f'<path d="{d}"/>'))
+    closed, open_ = jio.read_outlines(path, nodes=True)
+    np.testing.assert_allclose(closed.points, [[0, 0], [2, -2], [0, -2], [-1, -1], [-1, 0]],
+                               atol=1e-15)
+    assert closed.closed and not open_.closed
+    np.testing.assert_array_equal(open_.points, [[5, -5], [6, -5], [6, -7]])
+    with pytest.raises(ValueError, match="`nodes=True` or `samples`"):
+        jio.read_outlines(path, nodes=True, samples=10)
 
 
 def test_curve_svg_reads_back_onto_the_curve(tmp_path):

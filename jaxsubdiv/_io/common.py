@@ -62,10 +62,17 @@ class Outline(eqx.Module):
     - `points`: the points in order, a NumPy float64 array of shape `(m, 2)`. A closed
       outline does not repeat its first point at the end.
     - `closed`: True for a closed contour (the last point joins the first).
+    - `group`: the shape the contour belongs to, or None for a shape of its own. The
+      contours of one shape (a glyph's outer contour and its holes, the subpaths of one
+      SVG `<path>`, a silhouette's contours) share a number; an SVG file written from
+      them draws each shape as one `<path>` of subpaths, filled by the even-odd rule,
+      so the holes stay holes. Set by the SVG, glyph and PNG readers; point lists have
+      no shapes (None).
     """
 
     points: Float[np.ndarray, "m 2"]
     closed: bool = eqx.field(static=True, default=True)
+    group: int | None = eqx.field(static=True, default=None)
 
 
 def check_path(path, name: str = "path") -> None:
@@ -195,10 +202,12 @@ def checked_points(path, points, what: str = "the points") -> np.ndarray:
     return array
 
 
-def make_outline(path, points, closed: bool, what: str = "the points") -> Outline:
+def make_outline(
+    path, points, closed: bool, what: str = "the points", group: int | None = None
+) -> Outline:
     """A checked `Outline`; a closed one loses a last point that repeats the first."""
     points = checked_points(path, points, what)
-    return Outline(drop_closing_point(points) if closed else points, bool(closed))
+    return Outline(drop_closing_point(points) if closed else points, bool(closed), group)
 
 
 def drop_closing_point(points: np.ndarray) -> np.ndarray:

@@ -27,7 +27,8 @@ _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 def read_glyph(text: str, font=None, size: float = 1.0, samples=None) -> list[Outline]:
-    """The outlines of `text` set in `font`, one per closed contour of the glyphs.
+    """The outlines of `text` set in `font`, one per closed contour of the glyphs
+    (`samples` points on each, or its nodes for `samples="nodes"`), all one shape.
 
     Uses `matplotlib.textpath.TextPath`; a letter with holes ("a", "o", "8") gives its
     outer contour and one per hole, with their font orientation (TrueType: outer
@@ -106,14 +107,20 @@ def read_glyph(text: str, font=None, size: float = 1.0, samples=None) -> list[Ou
     if not contours:
         raise fail(where, "the font draws no outline for it.")
     check_contours(where, len(contours), "use a shorter text")
-    check_points(where, len(contours) * (samples or DEFAULT_SAMPLES))
+    check_points(
+        where,
+        sum(len(s) for s in contours)
+        if samples == "nodes"
+        else len(contours) * (samples or DEFAULT_SAMPLES),
+    )
+    # The text is one shape (group 0): its contours are filled together, holes and all.
     return [
-        make_outline(where, sample_contour(s, True, np.eye(3), samples), True, f"contour {i}")
+        make_outline(where, sample_contour(s, True, np.eye(3), samples), True, f"contour {i}", 0)
         for i, s in enumerate(contours)
     ]
 
 
-def _png_size(path, data: bytes) -> tuple[int, int]:
+def png_size(path, data: bytes) -> tuple[int, int]:
     """Width and height from the PNG header (the IHDR chunk that must come first)."""
     if not data.startswith(_PNG_SIGNATURE) or len(data) < 24 or data[12:16] != b"IHDR":
         raise fail(path, "is not a readable PNG image (it has no PNG signature and header).")
@@ -130,7 +137,7 @@ def read_image(path, threshold: float = 0.5, samples=None) -> list[Outline]:
     interpolation between pixel centers): the outer contours, clockwise, then the
     holes, counter-clockwise (as glyphs come from their fonts); specks with less than
     1% of the largest area are dropped. Pixel (row r, column c) of an image of height
-    H is the point (c, H - 1 - r).
+    H is the point (c, H - 1 - r). All contours are one shape (group 0).
 
     Limits: an image of more than `MAX_PIXELS` pixels is refused from its header,
     before it is decoded; one with more than `MAX_CONTOURS` contours of at least 0.5%
@@ -146,7 +153,7 @@ def read_image(path, threshold: float = 0.5, samples=None) -> list[Outline]:
     if not 0 < threshold < 1:
         raise ValueError(f"`threshold` must be between 0 and 1, got {threshold}.")
     data = read_bytes(path)
-    width, height = _png_size(path, data)
+    width, height = png_size(path, data)
     if width * height > common.MAX_PIXELS:
         raise fail(
             path,
@@ -225,6 +232,7 @@ def read_image(path, threshold: float = 0.5, samples=None) -> list[Outline]:
             p if samples is None else resample_polyline(p, samples, True),
             True,
             f"contour {k}",
+            0,  # one silhouette: filled together, holes and all
         )
         for k, p in enumerate(keep)
     ]

@@ -1,14 +1,17 @@
 """SVG: path data for every command, `<polygon>`, `<polyline>`, transforms; sampling by
-arc length on the exact curves; writing outlines and exact Bezier curves.
+arc length on the exact curves, or a contour's nodes; writing outlines and exact Bezier
+curves, one `<path>` per shape.
 
 jaxsubdiv's y axis points up and SVG's points down, so reading negates y and writing
-wraps the drawing in `<g transform="scale(1,-1)">`: a shape reads and draws upright,
-and a file written here reads back to the same numbers.
+wraps the drawing in `<g transform="scale(1,-1)">` (or the map to a PNG's pixels): a
+shape reads and draws upright, and a file written here reads back to the same numbers.
 """
 
 import math
 import re
 import xml.etree.ElementTree as ET
+from typing import NamedTuple
+from xml.sax.saxutils import escape
 
 import numpy as np
 
@@ -241,21 +244,28 @@ def _end(segment: Segment) -> np.ndarray:
     return evaluate(segment, np.ones(1))[0] if kind == "A" else data[-1]
 
 
+def contour_nodes(segments: list[Segment], closed: bool) -> np.ndarray:
+    """The nodes of a contour (where its segments meet, as a vector editor shows them),
+    in order; a closed contour's start is not repeated at its end."""
+    nodes = [evaluate(s, np.zeros(1))[0] if s[0] == "A" else s[1][0] for s in segments]
+    if not closed:
+        nodes.append(_end(segments[-1]))
+    return np.array(nodes)
+
+
 def sample_contour(segments: list[Segment], closed: bool, matrix: np.ndarray, samples):
     """Points of a contour after the affine `matrix` (3 x 3), equally spaced by arc length.
 
     Each sample is evaluated exactly on its segment; arc length is measured on a table
     of `_TABLE` points per curved segment, so the spacing is equal to the accuracy of
-    that table. A contour of straight segments keeps its vertices when `samples` is None.
+    that table. `samples="nodes"` gives the contour's nodes instead; so does None for
+    a contour of straight segments (its vertices).
     """
     linear, shift = matrix[:2, :2], matrix[:2, 2]
     transform = lambda p: p @ linear.T + shift
+    if samples == "nodes" or (samples is None and all(kind == "L" for kind, _ in segments)):
+        return transform(contour_nodes(segments, closed))
     if samples is None:
-        if all(kind == "L" for kind, _ in segments):
-            vertices = [data[0] for _, data in segments]
-            if not closed:
-                vertices.append(segments[-1][1][1])
-            return transform(np.array(vertices))
         samples = DEFAULT_SAMPLES
     tables, lengths = [], []
     for segment in segments:
@@ -395,6 +405,7 @@ def _contours(root, matrix: np.ndarray, path, found: list) -> int:
         if tag in ("path", "polygon", "polyline") and not _draws(style):
             skipped += 1
         elif tag == "path" and (element.get("d") or "").strip():
+            shape = found[-1][3] + 1 if found else 0  # the shapes so far, numbered
             for segments, closed in parse_path(element.get("d"), path):
                 if (
                     not closed
@@ -402,7 +413,7 @@ def _contours(root, matrix: np.ndarray, path, found: list) -> int:
                     and np.array_equal(_end(segments[-1]), segments[0][1][0])
                 ):
                     closed = True
-                found.append((segments, closed, matrix))
+                found.append((segments, closed, matrix, shape))
         elif tag in ("polygon", "polyline") and (element.get("points") or "").strip():
             p = _points_attribute(element.get("points"), tag, path)
             closed = tag == "polygon" or (len(p) > 2 and np.array_equal(p[0], p[-1]))
@@ -410,7 +421,7 @@ def _contours(root, matrix: np.ndarray, path, found: list) -> int:
                 p = p[:-1]
             ring = np.concatenate([p, p[:1]]) if closed else p
             segments = [("L", ring[i : i + 2]) for i in range(len(ring) - 1)]
-            found.append((segments, closed, matrix))
+            found.append((segments, closed, matrix, found[-1][3] + 1 if found else 0))
         if len(found) > common.MAX_CONTOURS:
             check_contours(path, len(found), counted=False)
         stack.extend((child, matrix, style) for child in reversed(list(element)))
@@ -446,13 +457,14 @@ def read_svg(path, samples) -> list[Outline]:
     check_points(
         path,
         sum(
-            samples
-            or (len(s) + 1 if all(k == "L" for k, _ in s) else DEFAULT_SAMPLES)
-            for s, _, _ in found
+            len(s) + 1
+            if samples == "nodes" or (samples is None and all(k == "L" for k, _ in s))
+            else samples or DEFAULT_SAMPLES
+            for s, *_ in found
         ),
     )
     outlines = []
-    for i, (s, c, m) in enumerate(found):
+    for i, (s, c, m, group) in enumerate(found):
         with np.errstate(all="ignore"):
             points = sample_contour(s, c, m, samples)
         if not np.all(np.isfinite(points)):
@@ -461,7 +473,7 @@ def read_svg(path, samples) -> list[Outline]:
                 f"contour {i}: its coordinates overflow a float64 (after the transforms); "
                 "scale the drawing down.",
             )
-        outlines.append(make_outline(path, points, c, f"contour {i}"))
+        outlines.append(make_outline(path, points, c, f"contour {i}", group))
     return outlines
 
 
@@ -469,8 +481,44 @@ def _number(value) -> str:
     return repr(float(value))
 
 
-def _svg_document(paths: list[str], points: np.ndarray) -> bytes:
-    """An SVG file drawing `paths` (path data in jaxsubdiv coordinates, y up)."""
+class Page(NamedTuple):
+    """Where a written drawing goes: the root's size attributes (`width`, `height`,
+    `viewBox`, ...) and the transform from jaxsubdiv's coordinates (y up) to the
+    page's user coordinates. None: fitted around the drawing (see `_fitted_page`)."""
+
+    attributes: dict
+    transform: str
+
+
+def page_like(like) -> Page:
+    """The page of the SVG or PNG file `like`, so that what is written lies over it.
+
+    SVG: the root's `width`, `height`, `viewBox` and `preserveAspectRatio`, and y
+    flipped back (the reader's coordinates are the root's user coordinates with y
+    negated). PNG: a `W x H` page in pixels; the reader puts pixel (r, c)'s center
+    at (c, H - 1 - r), which is (c + 1/2, r + 1/2) on the page.
+    """
+    kind = str(like).lower().rsplit(".", 1)[-1]
+    if kind == "png":
+        from .raster import png_size
+
+        width, height = png_size(like, read_bytes(like))
+        return Page(
+            {"width": str(width), "height": str(height), "viewBox": f"0 0 {width} {height}"},
+            f"matrix(1 0 0 -1 0.5 {_number(height - 0.5)})",
+        )
+    if kind != "svg":
+        raise fail(like, "`like` must be an .svg or .png file (whose page to take).")
+    try:
+        root = ET.fromstring(read_bytes(like))
+    except ET.ParseError as e:
+        raise fail(like, f"is not valid XML/SVG ({one_line(e, 120)}).") from None
+    names = ("width", "height", "viewBox", "preserveAspectRatio")
+    return Page({k: root.get(k) for k in names if root.get(k) is not None}, "scale(1,-1)")
+
+
+def _fitted_page(points: np.ndarray) -> Page:
+    """A page 400 px on its longer side around `points`, with a 5% margin."""
     lo, hi = points.min(axis=0), points.max(axis=0)
     # In halves, so that extents up to twice the largest float64 do not overflow (the
     # same numbers as in full otherwise); a viewBox beyond it is clipped to the largest.
@@ -482,52 +530,83 @@ def _svg_document(paths: list[str], points: np.ndarray) -> bytes:
     height = 400.0 * (box[3] / max(box[2], box[3]))
     with np.errstate(over="ignore"):
         box = np.clip(2 * box, -np.finfo(float).max, np.finfo(float).max)
-    lines = [
-        '<?xml version="1.0" encoding="UTF-8"?>',
-        '<svg xmlns="http://www.w3.org/2000/svg" version="1.1" '
-        f'width="{width:.1f}" height="{height:.1f}" viewBox="{" ".join(_number(v) for v in box)}">',
-        "<!-- written by jaxsubdiv.io; coordinates are y-up, hence scale(1,-1) -->",
-        f'<g transform="scale(1,-1)" fill="none" stroke="black" '
-        f'stroke-width="{_number(size / 100)}" stroke-linejoin="round">',  # size is a half
-        *(f'<path d="{d}"/>' for d in paths),
-        "</g>",
-        "</svg>",
-    ]
-    return ("\n".join(lines) + "\n").encode()
+    attributes = {"width": f"{width:.1f}", "height": f"{height:.1f}",
+                  "viewBox": " ".join(_number(v) for v in box)}
+    return Page(attributes, "scale(1,-1)")
 
 
-def polyline_data(points: np.ndarray, closed: bool) -> str:
+def _stroke_width(points: np.ndarray) -> str:
+    """0.5% of the drawing's larger extent (in halves: no overflow)."""
+    half = points.max(axis=0) / 2 - points.min(axis=0) / 2
+    return _number(float(max(half)) / 100 or 0.005)
+
+
+class Subpath(NamedTuple):
+    """One contour to write: its path data (M, then L/Q/C, optionally Z), its points
+    (for the page's extent and the finiteness check) and its shape."""
+
+    data: str
+    points: np.ndarray
+    closed: bool
+    group: int | None
+
+
+def polyline_subpath(points: np.ndarray, closed: bool, group=None) -> Subpath:
     d = "M " + " L ".join(f"{_number(x)} {_number(y)}" for x, y in points)
-    return d + " Z" if closed else d
+    return Subpath(d + " Z" if closed else d, points, closed, group)
 
 
-def write_svg(path, outlines: list[Outline]) -> None:
-    data = _svg_document(
-        [polyline_data(o.points, o.closed) for o in outlines],
-        np.concatenate([o.points for o in outlines]),
-    )
-    with open_for_writing(path) as f:
-        f.write(data)
+def bezier_subpath(beziers: np.ndarray, closed: bool, group=None) -> Subpath:
+    """Bezier segments `(s, degree + 1, 2)`, each starting where the last one ends."""
+    letter = {2: "L", 3: "Q", 4: "C"}[beziers.shape[1]]
+    parts = [f"M {_number(beziers[0, 0, 0])} {_number(beziers[0, 0, 1])}"]
+    for b in beziers:
+        parts.append(letter + " " + " ".join(f"{_number(x)} {_number(y)}" for x, y in b[1:]))
+    return Subpath(" ".join(parts) + (" Z" if closed else ""), beziers.reshape(-1, 2), closed,
+                   group)
 
 
-def write_bezier_svg(
-    path, beziers: np.ndarray | None, polyline: np.ndarray | None, closed: bool
-) -> None:
-    """An SVG of one curve: Bezier segments `(s, degree + 1, 2)` or a polyline."""
-    if beziers is None:
-        d, points = polyline_data(polyline, closed), polyline
-    else:
-        letter = {2: "L", 3: "Q", 4: "C"}[beziers.shape[1]]
-        parts = [f"M {_number(beziers[0, 0, 0])} {_number(beziers[0, 0, 1])}"]
-        for b in beziers:
-            parts.append(letter + " " + " ".join(f"{_number(x)} {_number(y)}" for x, y in b[1:]))
-        d = " ".join(parts) + (" Z" if closed else "")
-        points = beziers.reshape(-1, 2)
+def write_drawing(path, subpaths: list[Subpath], like=None, what: str = "the curve") -> None:
+    """An SVG file of the subpaths: one `<path>` per shape (subpaths of one `group`;
+    a subpath whose group is None is a shape of its own), in order of first appearance.
+    A shape of closed subpaths is filled black by the even-odd rule (its holes stay
+    holes, whatever their orientation); one with an open subpath is stroked instead.
+    The page is that of the file `like` (`page_like`), else fitted around the drawing.
+    """
+    points = np.concatenate([s.points for s in subpaths])
     if not np.all(np.isfinite(points)):
         raise fail(
             path,
-            "the curve's coordinates overflow a float64 (or are NaN); scale the control points "
-            "down.",
+            f"{what}'s coordinates overflow a float64 (or are NaN); scale the points down.",
         )
+    page = _fitted_page(points) if like is None else page_like(like)
+    shapes: dict = {}
+    for k, s in enumerate(subpaths):
+        shapes.setdefault(("own", k) if s.group is None else s.group, []).append(s)
+    stroke = (f'fill="none" stroke="black" stroke-width="{_stroke_width(points)}" '
+              'stroke-linejoin="round"')
+    elements = [
+        f'<path d="{" ".join(s.data for s in shape)}" '
+        + ('fill="black" fill-rule="evenodd"' if all(s.closed for s in shape) else stroke)
+        + "/>"
+        for shape in shapes.values()
+    ]
+    root = " ".join(f'{k}="{escape(v, {chr(34): "&quot;"})}"' for k, v in page.attributes.items())
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<svg xmlns="http://www.w3.org/2000/svg" version="1.1" {root}>',
+        "<!-- written by jaxsubdiv.io: coordinates are jaxsubdiv's (y up); the group's "
+        "transform puts them on the page -->",
+        f'<g transform="{page.transform}">',
+        *elements,
+        "</g>",
+        "</svg>",
+    ]
     with open_for_writing(path) as f:
-        f.write(_svg_document([d], points))
+        f.write(("\n".join(lines) + "\n").encode())
+
+
+def write_svg(path, outlines: list[Outline], like=None) -> None:
+    """Outlines as polylines, one `<path>` per shape (see `write_drawing`)."""
+    write_drawing(path, [polyline_subpath(o.points, o.closed, o.group) for o in outlines],
+                  like, "the outlines")
