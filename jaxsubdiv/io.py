@@ -121,11 +121,17 @@ def read_outlines(
         - JSON: `{"points": [[x, y], ...], "closed": true}`, a bare list of pairs, or
           `{"outlines": [...]}` of such objects.
         - SVG: every `<path>` (all commands of SVG 1.1, absolute and relative;
-          arcs by the specification's endpoint-to-center conversion), `<polygon>` and
-          `<polyline>`, with their `transform`s; one outline per subpath. A subpath is
-          closed if it ends with `Z` or returns exactly to its start. Shapes that draw
-          nothing (no fill and no stroke, transparent, hidden, `display: none`; own or
-          inherited attributes and `style`, not `<style>` sheets) are skipped.
+          arcs by the specification's endpoint-to-center conversion), `<polygon>`,
+          `<polyline>`, `<rect>` (rounded too), `<circle>`, `<ellipse>` and `<line>`,
+          in groups, nested `<svg>` viewports and `<use>` instances (of any element or
+          `<symbol>`), with their `transform`s and lengths in any unit; one outline per
+          subpath, in the root's user coordinates. A subpath is closed if it ends with
+          `Z` or returns exactly to its start. Shapes that draw nothing (no fill and no
+          stroke, transparent, hidden, `display: none`) are skipped, as decided by
+          their own or inherited attributes, `style`, and the `<style>` sheets' rules
+          with simple selectors (type, class, id, descendant and child; not `@media`).
+          Each `<path>` or shape is one `group`. `clip-path` and masks are not
+          applied.
         - PNG: the contours of a silhouette and its holes (see `threshold`), in pixels.
     - `kind`: the format, overriding the extension.
     - `samples`: points per outline, spaced equally by arc length. Curved SVG

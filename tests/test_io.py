@@ -18,7 +18,7 @@ from helpers import svg_bezier_paths
 
 import jaxsubdiv as js
 import jaxsubdiv.io as jio
-from jaxsubdiv._io import common, raster
+from jaxsubdiv._io import common, raster, svg
 
 
 POLYGON = np.array([[0.0, 0.0], [1.0, -0.1], [1.7, 0.6], [1.1, 1.3], [0.2, 1.1], [-0.4, 0.5]])
@@ -264,6 +264,108 @@ def test_svg_polygons_polylines_and_transforms(tmp_path):
     np.testing.assert_allclose(outlines[1].points, [[10, 0], [12, 0], [12, -2]])
     np.testing.assert_allclose(outlines[2].points, [[0, -1], [0, -2]], atol=1e-15)
     np.testing.assert_allclose(outlines[3].points, [[5, -6], [6, -6]])
+
+
+def _boxes(outlines):
+    """Each outline's bounding box (x0, y0, x1, y1), rounded, y up."""
+    return [tuple(np.round(np.concatenate([o.points.min(0), o.points.max(0)]), 9).tolist())
+            for o in outlines]
+
+
+def test_svg_basic_shapes_and_lengths(tmp_path):
+    """`<rect>` (square and rounded corners), `<circle>`, `<ellipse>` and `<line>` (SVG
+    1.1, chapter 9): every sample on the closed form of its shape; lengths in mm (96 px
+    to the inch) and % of the viewBox (r: of its diagonal / sqrt 2); a zero size draws
+    nothing."""
+    body = (
+        '<rect x="1" y="2" width="3" height="4"/>'
+        '<rect x="10" y="0" width="8" height="6" rx="2" transform="translate(0,1)"/>'
+        '<circle cx="5" cy="-5" r="2"/>'
+        '<ellipse cx="0" cy="0" rx="3" ry="1"/>'
+        '<line x1="0" y1="0" x2="10mm" y2="0" stroke="black"/>'
+        '<circle cx="0" cy="0" r="10%"/>'
+        '<rect width="0" height="5"/><circle r="0"/>'
+    )
+    source = _write(tmp_path, "shapes.svg", _svg(body).replace(
+        "<svg ", '<svg viewBox="0 0 300 400" '))
+    rect, rounded, circle, ellipse, line, percent = jio.read_outlines(source, samples=200)
+    assert _boxes([rect]) == [(1.0, -6.0, 4.0, -2.0)]
+    x, y = rect.points.T
+    assert np.all(np.isclose(x, 1) | np.isclose(x, 4) | np.isclose(y, -2) | np.isclose(y, -6))
+    # Rounded: inside the rectangle, and on a quarter circle of radius 2 at each corner.
+    x, y = rounded.points[:, 0], -rounded.points[:, 1] - 1
+    cx, cy = np.clip(x, 12, 16), np.clip(y, 2, 4)
+    corner = (x != cx) & (y != cy)
+    np.testing.assert_allclose(np.hypot(x - cx, y - cy)[corner], 2, atol=1e-12)
+    assert _boxes([rounded]) == [(10.0, -7.0, 18.0, -1.0)]
+    np.testing.assert_allclose(np.hypot(circle.points[:, 0] - 5, circle.points[:, 1] - 5), 2,
+                               atol=1e-12)
+    np.testing.assert_allclose((ellipse.points[:, 0] / 3) ** 2 + ellipse.points[:, 1] ** 2, 1,
+                               atol=1e-12)
+    assert not line.closed and rect.closed
+    np.testing.assert_allclose(line.points[[0, -1]], [[0, 0], [10 * 96 / 25.4, 0]], atol=1e-12)
+    np.testing.assert_allclose(np.hypot(*percent.points.T), 0.1 * 500 / np.sqrt(2), atol=1e-9)
+
+
+def test_svg_style_sheets(tmp_path):
+    """`<style>` rules (CSS 2.1's cascade): class, id, type and descendant selectors, a
+    sheet after the shapes it styles, specificity over order, `style` over sheets, rules
+    inside `@media` not applied, unsupported selectors not applied."""
+    sheet = """
+        /* hidden */ .off { fill: none } g.layer > path.ghost { display: none }
+        #keep { fill: black }  .off { stroke: none }
+        @media (prefers-color-scheme: dark) { path { display: none } }
+        path:hover { display: none } path[d] { display: none }
+    """
+    body = (
+        '<path class="off" d="M 0 0 L 1 0 L 1 1 Z"/>'  # no fill, no stroke: skipped
+        '<path class="off" id="keep" d="M 2 0 L 3 0 L 3 1 Z"/>'  # id beats class
+        '<g class="layer"><path class="ghost" d="M 4 0 L 5 0 L 5 1 Z"/></g>'  # hidden
+        '<g class="layer"><g><path class="ghost" d="M 6 0 L 7 0 L 7 1 Z"/></g></g>'  # not a child
+        '<path class="off" style="fill: red" d="M 8 0 L 9 0 L 9 1 Z"/>'  # style wins
+        f"<style>{sheet}</style>"
+    )
+    outlines = jio.read_outlines(_write(tmp_path, "styled.svg", _svg(body)))
+    assert [o.points[0, 0] for o in outlines] == [2.0, 6.0, 8.0]
+
+
+def test_svg_use_symbol_and_nested_viewports(tmp_path):
+    """`<use>` of a path (x, y, then its transform), of a `<symbol>` with a viewBox scaled
+    into the use's width and height (xMidYMid meet), a nested `<svg>`'s viewport; and
+    a `<use>` cycle is an error naming it."""
+    body = (
+        '<defs><path id="tri" d="M 0 0 L 1 0 L 0 1 Z"/>'
+        '<symbol id="box" viewBox="0 0 10 10"><path d="M 0 0 L 10 0 L 10 10 Z"/></symbol></defs>'
+        '<use href="#tri" x="5" y="6" transform="scale(2)"/>'
+        '<use xlink:href="#box" x="100" width="40" height="20" '
+        'xmlns:xlink="http://www.w3.org/1999/xlink"/>'
+        '<svg x="10" y="20" width="100" height="50" viewBox="0 0 10 10">'
+        '<path d="M 1 1 L 2 1 L 2 2 Z"/></svg>'
+    )
+    used, symbol, nested = jio.read_outlines(_write(tmp_path, "use.svg", _svg(body)))
+    # scale(2) then translate(5, 6): (p + (5, 6)) * 2, y negated.
+    np.testing.assert_allclose(used.points, [[10, -12], [12, -12], [10, -14]])
+    # A 10 x 10 box into 40 x 20, meet: scale 2, centred: x offset (40 - 20) / 2 = 10.
+    np.testing.assert_allclose(symbol.points, [[110, 0], [130, 0], [130, -20]])
+    # 10 x 10 into 100 x 50 at (10, 20): scale 5, x offset (100 - 50) / 2 = 25.
+    np.testing.assert_allclose(nested.points, [[40, -25], [45, -25], [45, -30]])
+    cycle = _svg('<g id="a"><path d="M 0 0 L 1 0 L 0 1 Z"/><use href="#a"/></g>')
+    with pytest.raises(jio.OutlineError, match=r"loop\.svg: <use> of '#a' refers to an "
+                       r"element that contains it"):
+        jio.read_outlines(_write(tmp_path, "loop.svg", cycle))
+
+
+def test_svg_use_explosion_is_bounded(tmp_path, monkeypatch):
+    """Nested `<use>`s of groups of `<use>`s multiply: the walk stops at a bound with a
+    clear error before it runs for hours (lowered here, so that the test is quick)."""
+    monkeypatch.setattr(svg, "_MAX_ELEMENTS", 1000)
+    levels = ['<path id="l0" d="M 0 0 L 1 0 L 0 1 Z"/>']
+    for k in range(1, 5):
+        levels.append(f'<g id="l{k}">' + f'<use href="#l{k - 1}"/>' * 10 + "</g>")
+    path = _write(tmp_path, "laughs.svg", _svg("<defs>" + "".join(levels) + "</defs>"
+                                               '<use href="#l4"/>'))
+    with pytest.raises(jio.OutlineError, match="more than 1,000 elements to draw"):
+        jio.read_outlines(path)
 
 
 def test_svg_shapes_that_draw_nothing_are_skipped(tmp_path):
@@ -665,7 +767,7 @@ ERRORS = [
     ("nan.csv", "0,0\nnan,1\n", "line 2: 'nan' is not a finite number"),
     ("one_point.csv", "1,2\n", "at least 2 points"),
     ("closed.csv", "# closed: maybe\n0,0\n1,1\n", "line 1: `closed:` must be true or false"),
-    ("nopath.svg", _svg('<circle cx="0" cy="0" r="1"/>'), "no <path>, <polygon> or <polyline>"),
+    ("nopath.svg", _svg('<text x="0" y="0">A</text>'), "no <path>, <polygon>, <polyline>, <rect>"),
     ("broken.svg", "<svg><path d='M 0 0 L 1 1'></svg>", "not valid XML"),
     ("html.svg", "<html><body/></html>", "not an SVG file"),
     ("baddata.svg", _svg('<path d="M 0 0 L 1 x"/>'), "bad path data at character"),
@@ -840,7 +942,7 @@ HOSTILE = [
     ("long_line.csv", b"0,0\n" + b"1 " * 50_000 + b"\n", "expected 2 values (x, y), got 50000"),
     ("blocks.csv", b"0,0\n1,1\n\n" * 10_001, "more contours than the limit of 10,000"),
     # SVG: numbers and transforms that do not fit a float64, arcs out of range, no contours
-    ("no_contours.svg", _svg('<path d="M 0 0"/><circle r="1"/>').encode(), "has no contours"),
+    ("no_contours.svg", _svg('<path d="M 0 0"/><circle r="0"/>').encode(), "has no contours"),
     (
         "rotate.svg",
         _svg(f'<path d="{_TRIANGLE}" transform="rotate(1e400)"/>').encode(),

@@ -15,7 +15,7 @@ from xml.sax.saxutils import escape
 
 import numpy as np
 
-from . import common
+from . import common, css
 from .common import (
     DEFAULT_SAMPLES,
     Outline,
@@ -351,11 +351,16 @@ _INITIAL = {"fill": "black", "fill-opacity": "1", "stroke": "none", "stroke-opac
             "stroke-width": "1", "visibility": "visible"}
 
 
-def _properties(element) -> dict:
-    """The element's presentation attributes, overridden by its `style` declarations
-    (values in lower case: CSS keywords are case-insensitive)."""
+def _properties(element, sheet: list, ancestors) -> dict:
+    """The element's presentation attributes, overridden by the rules of the document's
+    style sheets that match it (`css.parse_sheets`), overridden by its `style`
+    declarations (values in lower case: CSS keywords are case-insensitive)."""
+    watched = (*_INHERITED, "display", "opacity")
     found = {name: element.get(name).strip().lower()
-             for name in (*_INHERITED, "display", "opacity") if element.get(name) is not None}
+             for name in watched if element.get(name) is not None}
+    for steps, declarations in sheet:
+        if css.matches(steps, element, ancestors):
+            found.update((k, v) for k, v in declarations.items() if k in watched)
     for declaration in (element.get("style") or "").split(";"):
         name, colon, value = declaration.partition(":")
         if colon:
@@ -371,38 +376,228 @@ def _zero(value: str) -> bool:
         return False
 
 
-def _draws(style: dict) -> bool:
+def _draws(style: dict, fillable: bool = True) -> bool:
     """Whether an element with these (inherited and own) properties paints anything:
-    a visible fill or stroke that is not transparent."""
+    a visible fill (of a shape with an area) or stroke that is not transparent."""
     if style["visibility"] in ("hidden", "collapse"):
         return False
     unpainted = ("none", "transparent")
     fill = style["fill"] not in unpainted and not _zero(style["fill-opacity"])
     stroke = (style["stroke"] not in unpainted and not _zero(style["stroke-opacity"])
               and not _zero(style["stroke-width"]))
-    return fill or stroke
+    return (fill and fillable) or stroke
+
+
+#: Absolute units in user units (px), CSS 2.1 section 4.3.2: 96 px to the inch.
+_UNITS = {"": 1.0, "px": 1.0, "in": 96.0, "cm": 96 / 2.54, "mm": 96 / 25.4, "pt": 4 / 3,
+          "pc": 16.0, "em": 16.0, "ex": 8.0}
+_LENGTH = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([a-z]*|%)\s*$")
+
+
+def _length(element, name: str, axis: str, viewport, path, default: str = "0") -> float:
+    """A length attribute in user units: a number with an optional unit (`em` and `ex`
+    at the initial font size, 16 px), or a percentage of the viewport's width (`x`),
+    height (`y`) or normalised diagonal (`r`), SVG 1.1 section 7.10."""
+    text = element.get(name, default)
+    match = _LENGTH.match(text.lower())
+    if match is None or match.group(2) not in (*_UNITS, "%"):
+        raise fail(
+            path,
+            f"<{_tag(element)}> {name}={quote(text)} is not a length (a number, optionally "
+            "with a unit: px, mm, cm, in, pt, pc, em, ex or %).",
+        )
+    value = float(match.group(1))
+    if match.group(2) != "%":
+        value *= _UNITS[match.group(2)]
+    else:
+        width, height = viewport
+        value *= {"x": width, "y": height}.get(axis, math.hypot(width, height) / math.sqrt(2))
+        value /= 100
+    if not math.isfinite(value):
+        raise fail(path, f"<{_tag(element)}> {name}={quote(text)} is not finite.")
+    return value
+
+
+def _tag(element) -> str:
+    return element.tag.rsplit("}", 1)[-1] if isinstance(element.tag, str) else ""
+
+
+def _line(p, q) -> list[Segment]:
+    return [] if np.array_equal(p, q) else [("L", np.array([p, q], dtype=np.float64))]
+
+
+def _arc(p, rx, ry, q) -> list[Segment]:
+    arc = arc_segment(np.asarray(p, float), rx, ry, 0.0, False, True, np.asarray(q, float))
+    return [] if arc is None else [arc]
+
+
+def _basic_shape(element, tag: str, viewport, path) -> tuple[list[Segment], bool] | None:
+    """The outline of `<rect>` (rounded too), `<circle>`, `<ellipse>` or `<line>` as
+    segments (SVG 1.1 section 9), or None when it has no area or length to draw (a zero
+    or negative size, which also disables rendering)."""
+    length = lambda name, axis, default="0": _length(element, name, axis, viewport, path,
+                                                     default)
+    if tag == "line":
+        p = np.array([length("x1", "x"), length("y1", "y")])
+        q = np.array([length("x2", "x"), length("y2", "y")])
+        return (_line(p, q), False) if not np.array_equal(p, q) else None
+    if tag == "rect":
+        x, y, w, h = length("x", "x"), length("y", "y"), length("width", "x"), length("height", "y")
+        if w <= 0 or h <= 0:
+            return None
+        rx = length("rx", "x") if element.get("rx") is not None else None
+        ry = length("ry", "y") if element.get("ry") is not None else None
+        rx, ry = (rx if rx is not None else ry) or 0.0, (ry if ry is not None else rx) or 0.0
+        rx, ry = min(max(rx, 0.0), w / 2), min(max(ry, 0.0), h / 2)
+        corners = [(x + w, y), (x + w, y + h), (x, y + h), (x, y)]
+        if rx == 0 or ry == 0:
+            ring = [*corners, corners[0]]
+            return [s for a, b in zip(ring, ring[1:]) for s in _line(np.array(a), np.array(b))], True
+        points = [(x + rx, y), (x + w - rx, y), (x + w, y + ry), (x + w, y + h - ry),
+                  (x + w - rx, y + h), (x + rx, y + h), (x, y + h - ry), (x, y + ry)]
+        points = [np.array(p) for p in points]
+        segments = []
+        for k in range(4):
+            segments += _line(points[2 * k], points[2 * k + 1])
+            segments += _arc(points[2 * k + 1], rx, ry, points[(2 * k + 2) % 8])
+        return segments, True
+    cx, cy = length("cx", "x"), length("cy", "y")
+    if tag == "circle":
+        rx = ry = length("r", "r")
+    else:
+        rx, ry = length("rx", "x"), length("ry", "y")
+    if rx <= 0 or ry <= 0:
+        return None
+    quarter = [np.array(p) for p in ((cx + rx, cy), (cx, cy + ry), (cx - rx, cy), (cx, cy - ry))]
+    return [s for k in range(4) for s in _arc(quarter[k], rx, ry, quarter[(k + 1) % 4])], True
+
+
+def _viewbox(element, width: float, height: float, path) -> tuple[np.ndarray, tuple]:
+    """The transform of a nested `<svg>`'s or a `<symbol>`'s `viewBox` into a viewport
+    of `width` x `height` (uniform scale, centred: `xMidYMid meet`, the default; `none`
+    stretches), and the viewport size that percentages then refer to."""
+    text = element.get("viewBox")
+    if not text:
+        return np.eye(3), (width, height)
+    try:
+        x, y, w, h = (float(v) for v in re.split(r"[\s,]+", text.strip()))
+    except ValueError:
+        raise fail(path, f"<{_tag(element)}> viewBox={quote(text)} is not four numbers.") from None
+    if not (w > 0 and h > 0 and all(map(math.isfinite, (x, y, w, h)))):
+        raise fail(path, f"<{_tag(element)}> viewBox={quote(text)} needs a positive width and "
+                   "height.")
+    sx, sy = width / w, height / h
+    m = np.eye(3)
+    if (element.get("preserveAspectRatio") or "").strip().startswith("none"):
+        m[0, 0], m[1, 1] = sx, sy
+        m[:2, 2] = [-x * sx, -y * sy]
+    else:
+        scale = min(sx, sy)
+        m[0, 0] = m[1, 1] = scale
+        m[:2, 2] = [(width - w * scale) / 2 - x * scale, (height - h * scale) / 2 - y * scale]
+    return m, (w, h)
+
+
+def _translate(x: float, y: float) -> np.ndarray:
+    m = np.eye(3)
+    m[:2, 2] = [x, y]
+    return m
+
+
+#: The most elements one read may visit, counting each `<use>` instance of them: a few
+#: nested `<use>`s of groups of `<use>`s can otherwise instantiate billions.
+_MAX_ELEMENTS = 1_000_000
+
+_XLINK_HREF = "{http://www.w3.org/1999/xlink}href"
+
+
+def _root_viewport(root) -> tuple[float, float]:
+    """The size percentages of the root's children refer to: its viewBox's, else its
+    width and height (default 100 x 100: a percentage without a viewport is a guess)."""
+    text = root.get("viewBox")
+    if text:
+        try:
+            _, _, w, h = (float(v) for v in re.split(r"[\s,]+", text.strip()))
+            if w > 0 and h > 0:
+                return w, h
+        except ValueError:
+            pass
+    size = []
+    for name in ("width", "height"):
+        match = _LENGTH.match((root.get(name) or "").lower())
+        unit = match.group(2) if match else "%"
+        size.append(float(match.group(1)) * _UNITS[unit] if unit in _UNITS else 100.0)
+    return size[0], size[1]
 
 
 def _contours(root, matrix: np.ndarray, path, found: list) -> int:
     """The drawable contours under `root`, in document order; returns how many shapes
     were skipped because they draw nothing (`display: none`, `opacity: 0`, hidden, no
     fill and no stroke: e.g. the transparent background rectangle of matplotlib's
-    icons, which is no outline anyone can see). The tree is walked with a stack, not
-    by recursion, so any nesting depth works."""
-    stack = [(root, matrix, _INITIAL)]
-    skipped = 0
+    icons, which is no outline anyone can see).
+
+    Reads `<path>`, `<polygon>`, `<polyline>`, `<rect>`, `<circle>`, `<ellipse>` and
+    `<line>`, inside groups, nested `<svg>`s (their viewBox) and `<use>` instances (of
+    any element or `<symbol>`), with the document's `<style>` sheets (`css`). The tree
+    is walked with a stack, not by recursion, so any nesting depth works."""
+    sheet = css.parse_sheets(
+        [element.text or "" for element in root.iter() if _tag(element) == "style"]
+    )
+    ids = {element.get("id"): element for element in root.iter() if element.get("id")}
+    # (element, matrix, inherited style, viewport, ancestors, instanced): ancestors and
+    # instanced are linked lists (element, rest) of the tree above and of the elements
+    # being instantiated by `<use>` (a reference back into them is a cycle).
+    stack = [(root, matrix, _INITIAL, _root_viewport(root), None, None)]
+    skipped = visited = 0
     while stack:
-        element, matrix, inherited = stack.pop()
-        tag = element.tag.rsplit("}", 1)[-1] if isinstance(element.tag, str) else ""
+        element, matrix, inherited, viewport, ancestors, instanced = stack.pop()
+        visited += 1
+        if visited > _MAX_ELEMENTS:
+            raise fail(path, f"has more than {_MAX_ELEMENTS:,} elements to draw, counting "
+                       "each <use> of them; simplify the drawing.")
+        tag = _tag(element)
         if tag in _SKIP:
             continue
-        own = _properties(element)
+        own = _properties(element, sheet, ancestors)
         if own.get("display") == "none" or _zero(own.get("opacity", "1")):
             skipped += 1
             continue
         style = {**inherited, **{k: v for k, v in own.items() if k in _INHERITED}}
         matrix = matrix @ parse_transform(element.get("transform"), path)
-        if tag in ("path", "polygon", "polyline") and not _draws(style):
+        children = list(element)
+        if tag == "svg" and ancestors is not None:  # a nested viewport
+            x, y = _length(element, "x", "x", viewport, path), _length(element, "y", "y",
+                                                                        viewport, path)
+            width = _length(element, "width", "x", viewport, path, "100%")
+            height = _length(element, "height", "y", viewport, path, "100%")
+            box, viewport = _viewbox(element, width, height, path)
+            matrix = matrix @ _translate(x, y) @ box
+        elif tag == "use":
+            target = ids.get((element.get("href") or element.get(_XLINK_HREF) or "")
+                             .strip().removeprefix("#"))
+            link = instanced
+            while link is not None and link[0] is not target:
+                link = link[1]
+            if target is not None and link is not None or target is element:
+                raise fail(path, f"<use> of {quote(element.get('href') or element.get(_XLINK_HREF))}"
+                           " refers to an element that contains it (a cycle).")
+            children = []
+            if target is not None:
+                matrix = matrix @ _translate(_length(element, "x", "x", viewport, path),
+                                             _length(element, "y", "y", viewport, path))
+                instanced = (target, instanced)
+                if _tag(target) == "symbol":
+                    width = _length(element, "width", "x", viewport, path, "100%")
+                    height = _length(element, "height", "y", viewport, path, "100%")
+                    box, inner = _viewbox(target, width, height, path)
+                    ancestors = (element, ancestors)
+                    stack.extend((child, matrix @ box, style, inner, (target, ancestors),
+                                  instanced) for child in reversed(list(target)))
+                else:
+                    stack.append((target, matrix, style, viewport, (element, ancestors),
+                                  instanced))
+                continue
+        if tag in _DRAWN and not _draws(style, tag != "line"):
             skipped += 1
         elif tag == "path" and (element.get("d") or "").strip():
             shape = found[-1][3] + 1 if found else 0  # the shapes so far, numbered
@@ -422,21 +617,32 @@ def _contours(root, matrix: np.ndarray, path, found: list) -> int:
             ring = np.concatenate([p, p[:1]]) if closed else p
             segments = [("L", ring[i : i + 2]) for i in range(len(ring) - 1)]
             found.append((segments, closed, matrix, found[-1][3] + 1 if found else 0))
+        elif tag in _BASIC:
+            outline = _basic_shape(element, tag, viewport, path)
+            if outline is not None and outline[0]:
+                found.append((*outline, matrix, found[-1][3] + 1 if found else 0))
         if len(found) > common.MAX_CONTOURS:
             check_contours(path, len(found), counted=False)
-        stack.extend((child, matrix, style) for child in reversed(list(element)))
+        ancestors = (element, ancestors)
+        stack.extend((child, matrix, style, viewport, ancestors, instanced)
+                     for child in reversed(children))
     return skipped
+
+
+_BASIC = ("rect", "circle", "ellipse", "line")
+_DRAWN = ("path", "polygon", "polyline", *_BASIC)
 
 
 _FLIP = np.diag([1.0, -1.0, 1.0])
 
 
 def read_svg(path, samples) -> list[Outline]:
-    """Every visible `<path>`, `<polygon>` and `<polyline>` of an SVG file, one outline
-    per subpath, in document order, with transforms applied and y pointing up. Shapes
-    that draw nothing (no fill and no stroke, transparent, hidden, `display: none`,
-    from their own attributes and `style` or inherited from their groups) are skipped,
-    as a renderer would; CSS in `<style>` sheets is not read."""
+    """Every visible path and basic shape of an SVG file (see `_contours`), one outline
+    per subpath, in document order, in the root's user coordinates (its transforms,
+    nested viewBoxes and `<use>`s applied), y pointing up. Shapes that draw nothing (no
+    fill and no stroke, transparent, hidden, `display: none`, from their attributes,
+    the style sheets and `style`, or inherited from their groups) are skipped, as a
+    renderer would. Each `<path>` and shape is one group (`Outline.group`)."""
     try:
         root = ET.fromstring(read_bytes(path))
     except ET.ParseError as e:
@@ -450,7 +656,8 @@ def read_svg(path, samples) -> list[Outline]:
         skipped = _contours(root, _FLIP, path, found)
     if not found:
         raise fail(
-            path, "has no contours: no <path>, <polygon> or <polyline> with points to read"
+            path, "has no contours: no <path>, <polygon>, <polyline>, <rect>, <circle>, "
+            "<ellipse> or <line> with points to read"
             + (f" that draws anything ({skipped} shapes or groups with no visible fill "
                "or stroke, or hidden, were skipped)." if skipped else ".")
         )
