@@ -118,8 +118,9 @@ def read_outlines(
           `# closed: false` marks an open one.
         - NPY: an `(m, 2)` array (or `(k, m, 2)` for k outlines), closed. NPZ: as
           written by `write_outlines`, or any archive with a single `(m, 2)` array.
-        - JSON: `{"points": [[x, y], ...], "closed": true}`, a bare list of pairs, or
-          `{"outlines": [...]}` of such objects.
+        - JSON: `{"points": [[x, y], ...], "closed": true}` (optionally with
+          `"group": k`), a bare list of pairs, or `{"outlines": [...]}` of such
+          objects.
         - SVG: every `<path>` (all commands of SVG 1.1, absolute and relative;
           arcs by the specification's endpoint-to-center conversion), `<polygon>`,
           `<polyline>`, `<rect>` (rounded too), `<circle>`, `<ellipse>` and `<line>`,
@@ -130,8 +131,8 @@ def read_outlines(
           stroke, transparent, hidden, `display: none`) are skipped, as decided by
           their own or inherited attributes, `style`, and the `<style>` sheets' rules
           with simple selectors (type, class, id, descendant and child; not `@media`).
-          Each `<path>` or shape is one `group`. `clip-path` and masks are not
-          applied.
+          Each `<path>` or shape is one `group`. Not applied: `clip-path`, masks,
+          `<use>` of another file; `em`/`ex` are taken at 16/8 px.
         - PNG: the contours of a silhouette and its holes (see `threshold`), in pixels.
     - `kind`: the format, overriding the extension.
     - `samples`: points per outline, spaced equally by arc length. Curved SVG
@@ -143,15 +144,18 @@ def read_outlines(
     - `font`: with `text`, a font family known to matplotlib's font manager or a font
       file; default matplotlib's default font (DejaVu Sans).
     - `nodes`: for SVG and glyphs, each contour's nodes (the points where its segments
-      meet, as a vector editor shows them) instead of points sampled on its curves: the
-      drawing's own control polygon, e.g. to refine it. Point lists and PNG contours are
-      their own nodes. Not with `samples`.
+      meet, as a vector editor shows them; Bezier handles are not nodes, so a circle
+      drawn as four arcs is four points) instead of points sampled on its curves: the
+      polygon the drawing was made on, e.g. to refine it. A closed contour of one or
+      two curves adds their control points (and two inner points of each arc), to
+      make a polygon. Point lists and PNG contours are their own nodes. Not with
+      `samples`.
     - `threshold`: for PNG, the gray level (or alpha level, for an image with
       transparency) between 0 and 1 that separates the silhouette from the background.
       Which side is the background is decided by the image border.
 
-    **Returns:** a list of [`jaxsubdiv.io.Outline`][] (`points` `(m, 2)` and `closed`),
-    at least one.
+    **Returns:** a list of [`jaxsubdiv.io.Outline`][] (`points` `(m, 2)`, `closed`, and
+    the `group` of contours that make one shape), at least one.
 
     **Raises:** [`jaxsubdiv.io.OutlineError`][] for a missing, unreadable, empty or
     malformed file, one with no contours, or one beyond a limit of this module
@@ -311,7 +315,8 @@ def write_curve_svg(
     **Arguments:**
 
     - `path`: the SVG file to write.
-    - `control_points`: the control polygon, `(n, 2)`, or a list of them.
+    - `control_points`: the control polygon, `(n, 2)`, or a list of them (or a
+      `(k, n, 2)` array of k).
     - `scheme`: the subdivision scheme, or a list of them, one per polygon.
     - `boundary`: `"closed"`, `"open"` or `"clamped"`, as for [`jaxsubdiv.refine`][];
       or a list of them, one per polygon.
@@ -329,18 +334,13 @@ def write_curve_svg(
     when some curve is a polyline.
     """
     check_path(path)
-    several = isinstance(control_points, (list, tuple)) and (
-        len(control_points) == 0 or np.ndim(control_points[0]) == 2
-    )
-    polygons = list(control_points) if several else [control_points]
-    if not polygons:
-        raise ValueError("`control_points` is empty: no curve to write.")
+    polygons = _polygons(control_points)
     count = len(polygons)
 
     def per_curve(value, name, single):
         if not isinstance(value, (list, tuple)):
             return [value] * count
-        if not several or len(value) != count:
+        if len(value) != count:
             raise ValueError(
                 f"`{name}` must be one {single} or a list of one per control polygon "
                 f"({count}), got a list of {len(value)}."
@@ -349,7 +349,15 @@ def write_curve_svg(
 
     schemes = per_curve(scheme, "scheme", "scheme")
     boundaries = per_curve(boundary, "boundary", "boundary")
-    groups = [0] * count if groups is None else per_curve(groups, "groups", "list")
+    if groups is None:
+        groups = [0] * count
+    elif not isinstance(groups, (list, tuple)) or len(groups) != count:
+        raise ValueError(
+            f"`groups` must be a list of one int (or None) per control polygon ({count})."
+        )
+    for g in groups:
+        if g is not None and (isinstance(g, bool) or not isinstance(g, (int, np.integer))):
+            raise TypeError(f"`groups` must hold ints or None, got {g!r}.")
     subpaths, exact = [], True
     for i, (polygon, scheme, boundary, group) in enumerate(
         zip(polygons, schemes, boundaries, groups)
@@ -370,6 +378,23 @@ def write_curve_svg(
             exact = False
     write_drawing(path, subpaths, like, "the curve")
     return exact
+
+
+def _polygons(control_points) -> list:
+    """One control polygon (an `(n, 2)` array or nested list) as a list of one; a list
+    or tuple of them, or a `(k, n, 2)` array, as a list of k."""
+    if _is_array(control_points):
+        several = np.ndim(control_points) == 3
+    elif isinstance(control_points, (list, tuple)):
+        if not control_points:
+            raise ValueError("`control_points` is empty: no curve to write.")
+        try:
+            several = np.ndim(control_points[0]) == 2
+        except ValueError:  # a ragged first polygon: several, checked one by one
+            several = True
+    else:
+        several = False
+    return list(control_points) if several else [control_points]
 
 
 def write_result_json(path: str | os.PathLike, result, *, info: dict | None = None) -> None:

@@ -245,6 +245,22 @@ def svg_bezier_paths(text):
     return subpaths
 
 
+def svg_transform_matrix(transform):
+    """SVG's `matrix(a b c d e f)` or `scale(1,-1)` (what `jaxsubdiv.io` writes on its
+    group) as a 3 x 3 matrix, SVG 1.1 section 7.4."""
+    import re
+
+    if transform.replace(" ", "") == "scale(1,-1)":
+        return np.diag([1.0, -1.0, 1.0])
+    a, b, c, d, e, f = (float(v) for v in re.split(r"[\s,]+", transform[7:-1].strip()))
+    return np.array([[a, c, e], [b, d, f], [0, 0, 1]])
+
+
+def apply_affine(matrix, points):
+    """A 3 x 3 affine matrix applied to `(m, 2)` points."""
+    return np.asarray(points, float) @ matrix[:2, :2].T + matrix[:2, 2]
+
+
 def bezier_evaluate(segment, u):
     """de Casteljau evaluation of one Bezier segment `(degree + 1, 2)` at parameters u."""
     u = np.asarray(u, dtype=float)[:, None, None]

@@ -441,7 +441,7 @@ def test_bad_input_is_one_line_and_status_2(capsys, tmp_path):
         "comments.csv": "# nothing here\nx,y\n",
         "three.csv": "0,0,0\n1,0,0\n1,1,0\n",
         "words.csv": "0,0\n1,zero\n1,1\n",
-        "nopath.svg": '<svg xmlns="http://www.w3.org/2000/svg"><circle r="1"/></svg>',
+        "nopath.svg": '<svg xmlns="http://www.w3.org/2000/svg"><text>no shape</text></svg>',
         "notxml.svg": "<svg",
         "nopoints.json": '{"closed": true}',
         "garbage.png": "not a png",

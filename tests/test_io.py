@@ -14,7 +14,7 @@ import zlib
 import matplotlib.image
 import numpy as np
 import pytest
-from helpers import svg_bezier_paths
+from helpers import apply_affine, svg_bezier_paths, svg_transform_matrix
 
 import jaxsubdiv as js
 import jaxsubdiv.io as jio
@@ -312,21 +312,130 @@ def test_svg_style_sheets(tmp_path):
     sheet after the shapes it styles, specificity over order, `style` over sheets, rules
     inside `@media` not applied, unsupported selectors not applied."""
     sheet = """
-        /* hidden */ .off { fill: none } g.layer > path.ghost { display: none }
-        #keep { fill: black }  .off { stroke: none }
+        #keep { fill: black }  /* an id, before the class rule: it still wins */
+        .off { fill: none } g.layer > path.ghost { display: none } .off { stroke: none }
+        .a > .b .c { display: none }  .font { font-family: "}"; display: none }
+        .must { display: none ! important }
         @media (prefers-color-scheme: dark) { path { display: none } }
-        path:hover { display: none } path[d] { display: none }
+        path:hover { display: none } path[d] { display: none } .x, { display: none }
+        .last { display: none
     """
+    tri = lambda x: f'd="M {x} 0 L {x + 1} 0 L {x + 1} 1 Z"'
     body = (
-        '<path class="off" d="M 0 0 L 1 0 L 1 1 Z"/>'  # no fill, no stroke: skipped
-        '<path class="off" id="keep" d="M 2 0 L 3 0 L 3 1 Z"/>'  # id beats class
-        '<g class="layer"><path class="ghost" d="M 4 0 L 5 0 L 5 1 Z"/></g>'  # hidden
-        '<g class="layer"><g><path class="ghost" d="M 6 0 L 7 0 L 7 1 Z"/></g></g>'  # not a child
-        '<path class="off" style="fill: red" d="M 8 0 L 9 0 L 9 1 Z"/>'  # style wins
-        f"<style>{sheet}</style>"
+        f'<path class="off" {tri(0)}/>'  # no fill, no stroke: skipped
+        f'<path class="off" id="keep" {tri(2)}/>'  # id beats class
+        f'<g class="layer"><path class="ghost" {tri(4)}/></g>'  # hidden
+        f'<g class="layer"><g><path class="ghost" {tri(6)}/></g></g>'  # not a child
+        f'<path class="off" style="fill: red" {tri(8)}/>'  # style beats the sheet
+        f'<path class="off" fill="red" {tri(10)}/>'  # the sheet beats an attribute
+        f'<g class="a"><g class="b"><g class="b"><path class="c" {tri(12)}/></g></g></g>'
+        f'<path class="font" {tri(14)}/>'  # a brace in a string does not end the rule
+        f'<path class="must" style="display: inline" {tri(16)}/>'  # important wins
+        f'<path class="x" {tri(18)}/>'  # a malformed selector list drops the rule
+        f'<path class="last" {tri(20)}/>'  # a block open at the end closes there
+        f'<style>{sheet}</style><style media="print">path {{ display: none }}</style>'
     )
     outlines = jio.read_outlines(_write(tmp_path, "styled.svg", _svg(body)))
-    assert [o.points[0, 0] for o in outlines] == [2.0, 6.0, 8.0]
+    assert [o.points[0, 0] for o in outlines] == [2.0, 6.0, 8.0, 18.0]
+
+
+def test_svg_use_is_styled_where_its_target_stands(tmp_path):
+    """Sheet rules match a `<use>`'s target in the document tree, not under the `<use>`
+    (SVG 1.1, 5.6); the instance inherits the `<use>`'s own properties; a `<use>` of
+    nothing, or of another file, draws nothing."""
+    body = (
+        "<style>.hide path { display: none } use path { display: none }</style>"
+        '<defs><g class="hide"><path id="hidden" d="M 0 0 L 1 0 L 1 1 Z"/></g>'
+        '<path id="shown" d="M 2 0 L 3 0 L 3 1 Z"/></defs>'
+        '<use href="#hidden"/>'
+        '<g class="hide"><use href="#shown"/></g>'
+        '<use href="#shown" fill="none"/>'  # inherited: no fill, no stroke
+        '<use href="#nothing"/><use href="other.svg#shown"/>'
+    )
+    (outline,) = jio.read_outlines(_write(tmp_path, "use.svg", _svg(body)))
+    assert outline.points[0, 0] == 2.0
+
+
+@pytest.mark.parametrize(
+    "align, box",
+    [
+        ("", (110, -20, 130, 0)),  # xMidYMid meet: scale 2, centred in x
+        ("xMinYMin meet", (100, -20, 120, 0)),
+        ("xMaxYMax meet", (120, -20, 140, 0)),
+        ("xMidYMid slice", (100, -30, 140, 10)),  # scale 4, centred in y: -10 + ...
+        ("xMinYMin slice", (100, -40, 140, 0)),
+        ("none", (100, -20, 140, 0)),  # 4 in x, 2 in y
+    ],
+)
+def test_svg_symbol_preserve_aspect_ratio(tmp_path, align, box):
+    """A 10 x 10 `<symbol>` square used at x = 100 in a 40 x 20 viewport, by SVG 1.1's
+    viewBox mapping (7.8): the square's bounding box, worked out here by hand (y up)."""
+    attribute = f' preserveAspectRatio="{align}"' if align else ""
+    body = (f'<symbol id="s" viewBox="0 0 10 10"{attribute}><rect width="10" height="10"/>'
+            '</symbol><use href="#s" x="100" width="40" height="20"/>')
+    (outline,) = jio.read_outlines(_write(tmp_path, "symbol.svg", _svg(body)))
+    assert _boxes([outline]) == [tuple(float(v) for v in box)]
+
+
+def test_svg_viewports_of_no_size_and_rect_radii(tmp_path):
+    """A zero-sized nested `<svg>` or `<use>` of a `<symbol>` draws nothing and a negative
+    size is an error naming it; rounded rectangles: `ry` alone sets `rx`, radii are
+    clamped to half the side; `x`/`y` percentages of the viewBox."""
+    body = ('<symbol id="s" viewBox="0 0 1 1"><rect width="1" height="1"/></symbol>'
+            '<use href="#s" width="0" height="5"/>'
+            '<svg width="0" height="10"><rect width="1" height="1"/></svg>'
+            '<rect x="10%" y="50%" width="20" height="10" ry="3"/>'
+            '<rect x="0" y="0" width="4" height="2" rx="9"/>')
+    source = _write(tmp_path, "sizes.svg",
+                    _svg(body).replace("<svg ", '<svg viewBox="0 0 300 40" ', 1))
+    small, wide = jio.read_outlines(source, samples=400)
+    assert _boxes([small]) == [(30.0, -30.0, 50.0, -20.0)]
+    # rx = ry = 3: the corner at (30, 20) (y down) is a quarter circle about (33, 23).
+    x, y = small.points[:, 0], -small.points[:, 1]
+    corner = (x < 33) & (y < 23)
+    np.testing.assert_allclose(np.hypot(x - 33, y - 23)[corner], 3, atol=1e-12)
+    # rx = 9 clamped to 2, ry = rx clamped to 1: a stadium; its ends are half ellipses.
+    x, y = wide.points[:, 0], -wide.points[:, 1]
+    end = x < 2
+    np.testing.assert_allclose((((x - 2) / 2) ** 2 + (y - 1) ** 2)[end], 1, atol=1e-12)
+    negative = _svg('<svg width="-5" height="10"><rect width="1" height="1"/></svg>')
+    with pytest.raises(jio.OutlineError, match='<svg> width=.-5. is negative'):
+        jio.read_outlines(_write(tmp_path, "negative.svg", negative))
+
+
+def test_nodes_of_a_loop_of_one_curve(tmp_path):
+    """A closed contour of one cubic has one node: its Bezier control points make the
+    polygon instead (and `refine` then works on it)."""
+    path = _write(tmp_path, "loop.svg", _svg('<path d="M 0 0 C 5 5 5 -5 0 0 Z"/>'))
+    (outline,) = jio.read_outlines(path, nodes=True)
+    np.testing.assert_array_equal(outline.points, [[0, 0], [5, -5], [5, 5]])
+
+
+def test_one_polygon_with_per_curve_arguments_and_a_stack(tmp_path):
+    """One polygon may come with one-element lists; a `(k, n, 2)` array is k polygons;
+    bad `groups` are clear errors."""
+    path = tmp_path / "one.svg"
+    assert jio.write_curve_svg(path, POLYGON, js.CubicBSpline(), boundary=["closed"],
+                               groups=[None]) is True
+    assert len(svg_bezier_paths(path.read_text())) == 1
+    jio.write_curve_svg(path, np.stack([POLYGON, POLYGON + 5]), js.CubicBSpline())
+    assert len(svg_bezier_paths(path.read_text())) == 2
+    with pytest.raises(TypeError, match="`groups` must hold ints or None"):
+        jio.write_curve_svg(path, [POLYGON, POLYGON], js.CubicBSpline(), groups=[[1], [2]])
+    with pytest.raises(jio.OutlineError, match="control polygon 0 must be an"):
+        jio.write_curve_svg(path, [[[0, 0], [1]], POLYGON], js.CubicBSpline())
+
+
+def test_json_keeps_the_shapes(tmp_path):
+    """Groups survive a JSON round trip, so an SVG written after it has the glyph's hole
+    in the glyph's path."""
+    outlines = jio.read_outlines(text="o")
+    path = tmp_path / "o.json"
+    jio.write_outlines(path, outlines)
+    again = jio.read_outlines(path)
+    assert [o.group for o in again] == [o.group for o in outlines] == [0, 0]
+    jio.write_outlines(tmp_path / "o.svg", again)
+    assert (tmp_path / "o.svg").read_text().count("<path") == 1
 
 
 def test_svg_use_symbol_and_nested_viewports(tmp_path):
@@ -500,14 +609,7 @@ def _page(text):
 
 
 def _apply(transform, points):
-    """SVG's `matrix(a b c d e f)` or `scale(1,-1)` applied to points (SVG 1.1, 7.4)."""
-    if transform == "scale(1,-1)":
-        a, b, c, d, e, f = 1, 0, 0, -1, 0, 0
-    else:
-        a, b, c, d, e, f = (float(v) for v in re.match(r"matrix\(([^)]*)\)", transform)
-                            .group(1).split())
-    return np.stack([a * points[:, 0] + c * points[:, 1] + e,
-                     b * points[:, 0] + d * points[:, 1] + f], axis=1)
+    return apply_affine(svg_transform_matrix(transform), points)
 
 
 def test_several_curves_are_one_shape_with_holes(tmp_path):

@@ -23,24 +23,18 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 import pytest
-from helpers import bezier_evaluate, polyline_distances, svg_bezier_paths
+from helpers import (
+    apply_affine,
+    bezier_evaluate,
+    polyline_distances,
+    svg_bezier_paths,
+    svg_transform_matrix,
+)
 
 from jaxsubdiv._cli import main
 
 
 matplotlib.use("Agg")
-
-
-def _matrix(transform: str) -> np.ndarray:
-    """`matrix(a b c d e f)` or `scale(1,-1)` as a 3 x 3 matrix (SVG 1.1, 7.4)."""
-    if transform == "scale(1,-1)":
-        return np.diag([1.0, -1.0, 1.0])
-    a, b, c, d, e, f = (float(v) for v in re.split(r"[\s,]+", transform[7:-1].strip()))
-    return np.array([[a, c, e], [b, d, f], [0, 0, 1]])
-
-
-def _apply(matrix, points):
-    return points @ matrix[:2, :2].T + matrix[:2, 2]
 
 
 def _path_segments(d: str) -> list[list[np.ndarray]]:
@@ -94,8 +88,8 @@ def _icon(tmp_path):
     truth = []
     for element in re.findall(r"<path\s[^>]*>", text):
         d = re.search(r'\sd="([^"]*)"', element).group(1)
-        matrix = _matrix(re.search(r'transform="([^"]*)"', element).group(1))
-        truth += [_apply(matrix, _dense(s)) for s in _path_segments(d)]
+        matrix = svg_transform_matrix(re.search(r'transform="([^"]*)"', element).group(1))
+        truth += [apply_affine(matrix, _dense(s)) for s in _path_segments(d)]
     return icon, truth, 2, 2e-4
 
 
@@ -125,7 +119,7 @@ def _text(tmp_path):
     """'B' of DejaVu Sans: an outer contour and two holes. The command's page is fitted
     around the glyph with y flipped (scale(1,-1)): truth flipped to the page."""
     flip = np.diag([1.0, -1.0, 1.0])
-    truth = [_apply(flip, _dense(c)) for c in _glyph_segments("B")]
+    truth = [apply_affine(flip, _dense(c)) for c in _glyph_segments("B")]
     return ("--text", "B", "--font", "DejaVu Sans"), truth, 1, 2e-4
 
 
@@ -206,15 +200,19 @@ def test_a_real_file_comes_out_as_its_shape(case, tmp_path, capsys):
     assert len(elements) == shapes
     closed = case != "stroke"
     assert all(('fill-rule="evenodd"' in e) == closed for e in elements)
-    matrix = _matrix(re.search(r'<g transform="([^"]*)"', text).group(1))
-    subpaths = [_apply(matrix, _dense(s)) for s in svg_bezier_paths(text)]
+    matrix = svg_transform_matrix(re.search(r'<g transform="([^"]*)"', text).group(1))
+    subpaths = [apply_affine(matrix, _dense(s)) for s in svg_bezier_paths(text)]
     assert len(subpaths) == len(truth)
     size = max(np.linalg.norm(np.ptp(t, axis=0)) for t in truth)
-    reports = sorted(tmp_path.glob("out*.json"))
-    for i, (fitted, report) in enumerate(zip(subpaths, reports)):
-        # The true contour of this subpath: the nearest by centroid (a PNG's contours
-        # come outer first, then holes).
-        true = min(truth, key=lambda t: np.linalg.norm(t.mean(0) - fitted.mean(0)))
+    reports = [tmp_path / "out.json"] if len(truth) == 1 else [
+        tmp_path / f"out-{i + 1}.json" for i in range(len(truth))]
+    # Each subpath's true contour: the nearest by centroid (a PNG's contours come outer
+    # first, then holes), one each.
+    nearest = [int(np.argmin([np.linalg.norm(t.mean(0) - f.mean(0)) for t in truth]))
+               for f in subpaths]
+    assert sorted(nearest) == list(range(len(truth)))
+    for i, (fitted, report, k) in enumerate(zip(subpaths, reports, nearest)):
+        true = truth[k]
         errors = json.loads(report.read_text())["errors"]
         distance = _hausdorff(fitted, true, closed)
         # The fit's own two-sided maximum is to its samples, on the true outline: the

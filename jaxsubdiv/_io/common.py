@@ -2,6 +2,7 @@
 and resampling by arc length."""
 
 import os
+import struct
 from pathlib import Path
 
 import equinox as eqx
@@ -66,8 +67,8 @@ class Outline(eqx.Module):
       contours of one shape (a glyph's outer contour and its holes, the subpaths of one
       SVG `<path>`, a silhouette's contours) share a number; an SVG file written from
       them draws each shape as one `<path>` of subpaths, filled by the even-odd rule,
-      so the holes stay holes. Set by the SVG, glyph and PNG readers; point lists have
-      no shapes (None).
+      so the holes stay holes. Set by the SVG, glyph and PNG readers; SVG and JSON
+      files keep it, the other point formats do not (their outlines read back as None).
     """
 
     points: Float[np.ndarray, "m 2"]
@@ -165,6 +166,16 @@ def check_points(path, count: int, what: str = "the outlines") -> None:
             f"{what} would have {count:,} points, more than the limit of {MAX_POINTS:,} "
             "(jaxsubdiv.io.MAX_POINTS); ask for fewer `samples` or split the file.",
         )
+
+
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def png_size(path, data: bytes) -> tuple[int, int]:
+    """Width and height from the PNG header (the IHDR chunk that must come first)."""
+    if not data.startswith(_PNG_SIGNATURE) or len(data) < 24 or data[12:16] != b"IHDR":
+        raise fail(path, "is not a readable PNG image (it has no PNG signature and header).")
+    return struct.unpack(">II", data[16:24])
 
 
 def read_text(path) -> str:

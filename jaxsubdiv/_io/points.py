@@ -391,12 +391,16 @@ def _json_outline(path, value, what: str) -> Outline:
     closed = value.get("closed", True)
     if not isinstance(closed, bool):
         raise fail(path, f'{what}["closed"] must be true or false, got {show_json(closed)}.')
-    return make_outline(path, json_points(path, value["points"], f'{what}["points"]'), closed, what)
+    group = value.get("group")
+    if group is not None and (isinstance(group, bool) or not isinstance(group, int)):
+        raise fail(path, f'{what}["group"] must be an integer or null, got {show_json(group)}.')
+    points = json_points(path, value["points"], f'{what}["points"]')
+    return make_outline(path, points, closed, what, group)
 
 
 def read_json(path) -> list[Outline]:
-    """`{"points": [[x, y], ...], "closed": true}`, a bare list of pairs, or
-    `{"outlines": [{"points": ..., "closed": ...}, ...]}` for several."""
+    """`{"points": [[x, y], ...], "closed": true}` (and optionally `"group": k`), a bare
+    list of pairs, or `{"outlines": [{"points": ..., "closed": ...}, ...]}` for several."""
     data = load_json(path)
     if isinstance(data, dict) and "outlines" in data:
         items = data["outlines"]
@@ -410,7 +414,8 @@ def read_json(path) -> list[Outline]:
 
 
 def write_json(path, outlines: list[Outline]) -> None:
-    items = [{"points": o.points.tolist(), "closed": o.closed} for o in outlines]
+    items = [{"points": o.points.tolist(), "closed": o.closed}
+             | ({} if o.group is None else {"group": int(o.group)}) for o in outlines]
     data = items[0] if len(items) == 1 else {"outlines": items}
     with open_for_writing(path) as f:
         f.write(json.dumps(data).encode())

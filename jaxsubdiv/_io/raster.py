@@ -3,7 +3,6 @@
 
 import io
 import os
-import struct
 
 import numpy as np
 
@@ -16,14 +15,12 @@ from .common import (
     fail,
     make_outline,
     one_line,
+    png_size,
     quote,
     read_bytes,
     resample_polyline,
 )
 from .svg import sample_contour
-
-
-_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 def read_glyph(text: str, font=None, size: float = 1.0, samples=None) -> list[Outline]:
@@ -118,13 +115,6 @@ def read_glyph(text: str, font=None, size: float = 1.0, samples=None) -> list[Ou
         make_outline(where, sample_contour(s, True, np.eye(3), samples), True, f"contour {i}", 0)
         for i, s in enumerate(contours)
     ]
-
-
-def png_size(path, data: bytes) -> tuple[int, int]:
-    """Width and height from the PNG header (the IHDR chunk that must come first)."""
-    if not data.startswith(_PNG_SIGNATURE) or len(data) < 24 or data[12:16] != b"IHDR":
-        raise fail(path, "is not a readable PNG image (it has no PNG signature and header).")
-    return struct.unpack(">II", data[16:24])
 
 
 def read_image(path, threshold: float = 0.5, samples=None) -> list[Outline]:

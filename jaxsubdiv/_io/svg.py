@@ -11,7 +11,6 @@ import math
 import re
 import xml.etree.ElementTree as ET
 from typing import NamedTuple
-from xml.sax.saxutils import escape
 
 import numpy as np
 
@@ -26,6 +25,7 @@ from .common import (
     make_outline,
     one_line,
     open_for_writing,
+    png_size,
     quote,
     read_bytes,
 )
@@ -245,9 +245,19 @@ def _end(segment: Segment) -> np.ndarray:
 
 
 def contour_nodes(segments: list[Segment], closed: bool) -> np.ndarray:
-    """The nodes of a contour (where its segments meet, as a vector editor shows them),
-    in order; a closed contour's start is not repeated at its end."""
-    nodes = [evaluate(s, np.zeros(1))[0] if s[0] == "A" else s[1][0] for s in segments]
+    """The nodes of a contour (where its segments meet, as a vector editor shows them;
+    Bezier handles are not nodes), in order; a closed contour's start is not repeated
+    at its end. A closed contour of fewer than three segments (a loop of one or two
+    curves) has too few nodes for a polygon: its curves' control points (and two
+    inner points of each arc) are taken too."""
+    few = closed and len(segments) < 3
+    nodes = []
+    for kind, data in segments:
+        if kind == "A":
+            nodes.extend(evaluate((kind, data), np.array([0.0, 1 / 3, 2 / 3]) if few
+                                  else np.zeros(1)))
+        else:
+            nodes.extend(data[:-1] if few else data[:1])
     if not closed:
         nodes.append(_end(segments[-1]))
     return np.array(nodes)
@@ -351,20 +361,18 @@ _INITIAL = {"fill": "black", "fill-opacity": "1", "stroke": "none", "stroke-opac
             "stroke-width": "1", "visibility": "visible"}
 
 
-def _properties(element, sheet: list, ancestors) -> dict:
-    """The element's presentation attributes, overridden by the rules of the document's
-    style sheets that match it (`css.parse_sheets`), overridden by its `style`
-    declarations (values in lower case: CSS keywords are case-insensitive)."""
+def _properties(element, styled: dict) -> dict:
+    """The element's presentation attributes, overridden by the style sheets' rules that
+    match it (`styled`, from `css.cascade`), by its `style` declarations, by the
+    sheets' `!important` ones and by its own (CSS 2.1, 6.4.1; values in lower case:
+    CSS keywords are case-insensitive)."""
     watched = (*_INHERITED, "display", "opacity")
     found = {name: element.get(name).strip().lower()
              for name in watched if element.get(name) is not None}
-    for steps, declarations in sheet:
-        if css.matches(steps, element, ancestors):
-            found.update((k, v) for k, v in declarations.items() if k in watched)
-    for declaration in (element.get("style") or "").split(";"):
-        name, colon, value = declaration.partition(":")
-        if colon:
-            found[name.strip().lower()] = value.lower().replace("!important", "").strip()
+    layers = (styled.get(element, {}), css.declarations(element.get("style") or ""))
+    for important in (False, True):
+        for layer in layers:
+            found.update((k, v) for k, (v, i) in layer.items() if i == important and k in watched)
     return found
 
 
@@ -419,7 +427,7 @@ def _length(element, name: str, axis: str, viewport, path, default: str = "0") -
 
 
 def _tag(element) -> str:
-    return element.tag.rsplit("}", 1)[-1] if isinstance(element.tag, str) else ""
+    return css.local_name(element.tag)
 
 
 def _line(p, q) -> list[Segment]:
@@ -472,29 +480,48 @@ def _basic_shape(element, tag: str, viewport, path) -> tuple[list[Segment], bool
     return [s for k in range(4) for s in _arc(quarter[k], rx, ry, quarter[(k + 1) % 4])], True
 
 
-def _viewbox(element, width: float, height: float, path) -> tuple[np.ndarray, tuple]:
-    """The transform of a nested `<svg>`'s or a `<symbol>`'s `viewBox` into a viewport
-    of `width` x `height` (uniform scale, centred: `xMidYMid meet`, the default; `none`
-    stretches), and the viewport size that percentages then refer to."""
+def _view_box(element, path) -> tuple[float, float, float, float] | None:
+    """An element's `viewBox` (x, y, width, height), or None without one."""
     text = element.get("viewBox")
-    if not text:
-        return np.eye(3), (width, height)
+    if text is None or not text.strip():
+        return None
     try:
         x, y, w, h = (float(v) for v in re.split(r"[\s,]+", text.strip()))
     except ValueError:
         raise fail(path, f"<{_tag(element)}> viewBox={quote(text)} is not four numbers.") from None
     if not (w > 0 and h > 0 and all(map(math.isfinite, (x, y, w, h)))):
-        raise fail(path, f"<{_tag(element)}> viewBox={quote(text)} needs a positive width and "
-                   "height.")
+        raise fail(path, f"<{_tag(element)}> viewBox={quote(text)} needs a positive, finite "
+                   "width and height.")
+    return x, y, w, h
+
+
+_ALIGN = re.compile(r"(?:defer\s+)?(none|x(min|mid|max)y(min|mid|max))(?:\s+(meet|slice))?\s*$")
+
+
+def _viewbox(element, width: float, height: float, path) -> tuple[np.ndarray, tuple]:
+    """The transform of a nested `<svg>`'s or a `<symbol>`'s `viewBox` into a viewport
+    of `width` x `height` by its `preserveAspectRatio` (SVG 1.1, 7.8: `none` stretches;
+    otherwise one scale, the smaller (`meet`, the default) or the larger (`slice`), and
+    the box aligned at min, mid or max on each axis), and the viewport size that
+    percentages inside then refer to."""
+    box = _view_box(element, path)
+    if box is None:
+        return np.eye(3), (width, height)
+    x, y, w, h = box
+    text = (element.get("preserveAspectRatio") or "xMidYMid meet").strip().lower()
+    match = _ALIGN.match(text)
+    if match is None:
+        raise fail(path, f"<{_tag(element)}> preserveAspectRatio={quote(text)} is not an "
+                   "alignment such as xMidYMid meet, xMinYMin slice or none.")
     sx, sy = width / w, height / h
-    m = np.eye(3)
-    if (element.get("preserveAspectRatio") or "").strip().startswith("none"):
-        m[0, 0], m[1, 1] = sx, sy
-        m[:2, 2] = [-x * sx, -y * sy]
-    else:
-        scale = min(sx, sy)
-        m[0, 0] = m[1, 1] = scale
-        m[:2, 2] = [(width - w * scale) / 2 - x * scale, (height - h * scale) / 2 - y * scale]
+    if match.group(1) != "none":
+        sx = sy = max(sx, sy) if match.group(4) == "slice" else min(sx, sy)
+    at = {"min": 0.0, "mid": 0.5, "max": 1.0}
+    m = np.diag([sx, sy, 1.0])
+    m[:2, 2] = [-x * sx, -y * sy]
+    if match.group(1) != "none":
+        m[0, 2] += at[match.group(2)] * (width - w * sx)
+        m[1, 2] += at[match.group(3)] * (height - h * sy)
     return m, (w, h)
 
 
@@ -504,30 +531,38 @@ def _translate(x: float, y: float) -> np.ndarray:
     return m
 
 
-#: The most elements one read may visit, counting each `<use>` instance of them: a few
-#: nested `<use>`s of groups of `<use>`s can otherwise instantiate billions.
-_MAX_ELEMENTS = 1_000_000
+#: The most elements one read may visit, counting each `<use>` instance of them (a few
+#: nested `<use>`s of groups of `<use>`s can instantiate billions); about 3 s of work.
+_MAX_ELEMENTS = 250_000
 
 _XLINK_HREF = "{http://www.w3.org/1999/xlink}href"
 
 
-def _root_viewport(root) -> tuple[float, float]:
+def _root_viewport(root, path) -> tuple[float, float]:
     """The size percentages of the root's children refer to: its viewBox's, else its
-    width and height (default 100 x 100: a percentage without a viewport is a guess)."""
-    text = root.get("viewBox")
-    if text:
-        try:
-            _, _, w, h = (float(v) for v in re.split(r"[\s,]+", text.strip()))
-            if w > 0 and h > 0:
-                return w, h
-        except ValueError:
-            pass
+    width and height (default 100%, of an unknown window: taken as 100 x 100)."""
+    box = _view_box(root, path)
+    if box is not None:
+        return box[2], box[3]
     size = []
-    for name in ("width", "height"):
-        match = _LENGTH.match((root.get(name) or "").lower())
-        unit = match.group(2) if match else "%"
-        size.append(float(match.group(1)) * _UNITS[unit] if unit in _UNITS else 100.0)
+    for name, axis in (("width", "x"), ("height", "y")):
+        size.append(_length(root, name, axis, (100.0, 100.0), path, "100%"))
     return size[0], size[1]
+
+
+def _viewport_size(element, use, viewport, path) -> tuple[float, float] | None:
+    """The width and height of a nested `<svg>` or an instanced `<symbol>` (a `<use>`'s
+    own, when given, override the `<svg>`'s: SVG 1.1, 5.6); None when one is zero
+    (rendering disabled). Negative sizes are errors."""
+    size = []
+    for name, axis in (("width", "x"), ("height", "y")):
+        source = use if use is not None and use.get(name) is not None else element
+        value = _length(source, name, axis, viewport, path, "100%")
+        if value < 0:
+            raise fail(path, f"<{_tag(source)}> {name}={quote(source.get(name))} is negative; "
+                       "a viewport's size must be positive.")
+        size.append(value)
+    return None if 0 in size else (size[0], size[1])
 
 
 def _contours(root, matrix: np.ndarray, path, found: list) -> int:
@@ -538,95 +573,93 @@ def _contours(root, matrix: np.ndarray, path, found: list) -> int:
 
     Reads `<path>`, `<polygon>`, `<polyline>`, `<rect>`, `<circle>`, `<ellipse>` and
     `<line>`, inside groups, nested `<svg>`s (their viewBox) and `<use>` instances (of
-    any element or `<symbol>`), with the document's `<style>` sheets (`css`). The tree
-    is walked with a stack, not by recursion, so any nesting depth works."""
-    sheet = css.parse_sheets(
-        [element.text or "" for element in root.iter() if _tag(element) == "style"]
-    )
-    ids = {element.get("id"): element for element in root.iter() if element.get("id")}
-    # (element, matrix, inherited style, viewport, ancestors, instanced): ancestors and
-    # instanced are linked lists (element, rest) of the tree above and of the elements
-    # being instantiated by `<use>` (a reference back into them is a cycle).
-    stack = [(root, matrix, _INITIAL, _root_viewport(root), None, None)]
+    any element of the file, `<symbol>`s included), styled by the document's `<style>`
+    sheets (`css`). The tree is walked with a stack, not by recursion, so any nesting
+    depth works."""
+    styled = css.cascade(root, css.parse_sheets(
+        [e.text or "" for e in root.iter() if _tag(e) == "style" and css.applies(e)]))
+    ids = {}
+    for element in root.iter():
+        if element.get("id"):
+            ids.setdefault(element.get("id"), element)  # the first one, as the DOM does
+    # (element, matrix, inherited style, viewport, instanced, use): `instanced` is the
+    # linked list (element, rest) of the elements being drawn by `<use>`s (a reference
+    # back into one is a cycle); `use` is the `<use>` drawing this element, if any.
+    stack = [(root, matrix, _INITIAL, _root_viewport(root, path), None, None)]
     skipped = visited = 0
     while stack:
-        element, matrix, inherited, viewport, ancestors, instanced = stack.pop()
+        element, matrix, inherited, viewport, instanced, use = stack.pop()
         visited += 1
         if visited > _MAX_ELEMENTS:
             raise fail(path, f"has more than {_MAX_ELEMENTS:,} elements to draw, counting "
                        "each <use> of them; simplify the drawing.")
         tag = _tag(element)
-        if tag in _SKIP:
+        if tag in _SKIP and not (tag == "symbol" and use is not None):
             continue
-        own = _properties(element, sheet, ancestors)
+        own = _properties(element, styled)
         if own.get("display") == "none" or _zero(own.get("opacity", "1")):
             skipped += 1
             continue
         style = {**inherited, **{k: v for k, v in own.items() if k in _INHERITED}}
         matrix = matrix @ parse_transform(element.get("transform"), path)
         children = list(element)
-        if tag == "svg" and ancestors is not None:  # a nested viewport
-            x, y = _length(element, "x", "x", viewport, path), _length(element, "y", "y",
-                                                                        viewport, path)
-            width = _length(element, "width", "x", viewport, path, "100%")
-            height = _length(element, "height", "y", viewport, path, "100%")
-            box, viewport = _viewbox(element, width, height, path)
-            matrix = matrix @ _translate(x, y) @ box
+        if tag in ("svg", "symbol") and element is not root:  # a viewport of its own
+            size = _viewport_size(element, use, viewport, path)
+            if size is None:
+                continue
+            if tag == "svg":
+                matrix = matrix @ _translate(_length(element, "x", "x", viewport, path),
+                                             _length(element, "y", "y", viewport, path))
+            box, viewport = _viewbox(element, *size, path)
+            matrix = matrix @ box
         elif tag == "use":
-            target = ids.get((element.get("href") or element.get(_XLINK_HREF) or "")
-                             .strip().removeprefix("#"))
+            href = element.get("href") or element.get(_XLINK_HREF) or ""
+            target = ids.get(href.strip().removeprefix("#")) if href.strip().startswith("#") \
+                else None  # another file's element is not read
             link = instanced
             while link is not None and link[0] is not target:
                 link = link[1]
-            if target is not None and link is not None or target is element:
-                raise fail(path, f"<use> of {quote(element.get('href') or element.get(_XLINK_HREF))}"
-                           " refers to an element that contains it (a cycle).")
-            children = []
+            if target is not None and (link is not None or target is element):
+                raise fail(path, f"<use> of {quote(href)} refers to an element that contains "
+                           "it (a cycle).")
             if target is not None:
                 matrix = matrix @ _translate(_length(element, "x", "x", viewport, path),
                                              _length(element, "y", "y", viewport, path))
-                instanced = (target, instanced)
-                if _tag(target) == "symbol":
-                    width = _length(element, "width", "x", viewport, path, "100%")
-                    height = _length(element, "height", "y", viewport, path, "100%")
-                    box, inner = _viewbox(target, width, height, path)
-                    ancestors = (element, ancestors)
-                    stack.extend((child, matrix @ box, style, inner, (target, ancestors),
-                                  instanced) for child in reversed(list(target)))
-                else:
-                    stack.append((target, matrix, style, viewport, (element, ancestors),
-                                  instanced))
-                continue
+                stack.append((target, matrix, style, viewport, (target, instanced), element))
+            continue
         if tag in _DRAWN and not _draws(style, tag != "line"):
             skipped += 1
-        elif tag == "path" and (element.get("d") or "").strip():
-            shape = found[-1][3] + 1 if found else 0  # the shapes so far, numbered
-            for segments, closed in parse_path(element.get("d"), path):
-                if (
-                    not closed
-                    and len(segments) > 1
-                    and np.array_equal(_end(segments[-1]), segments[0][1][0])
-                ):
-                    closed = True
-                found.append((segments, closed, matrix, shape))
-        elif tag in ("polygon", "polyline") and (element.get("points") or "").strip():
-            p = _points_attribute(element.get("points"), tag, path)
-            closed = tag == "polygon" or (len(p) > 2 and np.array_equal(p[0], p[-1]))
-            if closed and np.array_equal(p[0], p[-1]):
-                p = p[:-1]
-            ring = np.concatenate([p, p[:1]]) if closed else p
-            segments = [("L", ring[i : i + 2]) for i in range(len(ring) - 1)]
-            found.append((segments, closed, matrix, found[-1][3] + 1 if found else 0))
-        elif tag in _BASIC:
-            outline = _basic_shape(element, tag, viewport, path)
-            if outline is not None and outline[0]:
-                found.append((*outline, matrix, found[-1][3] + 1 if found else 0))
+        else:
+            outlines = _element_contours(element, tag, viewport, path)
+            shape = found[-1][3] + 1 if found else 0  # this element's number
+            found += [(segments, closed, matrix, shape) for segments, closed in outlines]
         if len(found) > common.MAX_CONTOURS:
             check_contours(path, len(found), counted=False)
-        ancestors = (element, ancestors)
-        stack.extend((child, matrix, style, viewport, ancestors, instanced)
+        stack.extend((child, matrix, style, viewport, instanced, None)
                      for child in reversed(children))
     return skipped
+
+
+def _element_contours(element, tag: str, viewport, path) -> list[tuple[list[Segment], bool]]:
+    """The contours (segments, closed) an element draws, in its own coordinates."""
+    if tag == "path" and (element.get("d") or "").strip():
+        subpaths = []
+        for segments, closed in parse_path(element.get("d"), path):
+            # A subpath that returns exactly to its start without `Z` is closed too.
+            returns = len(segments) > 1 and np.array_equal(_end(segments[-1]), segments[0][1][0])
+            subpaths.append((segments, closed or returns))
+        return subpaths
+    if tag in ("polygon", "polyline") and (element.get("points") or "").strip():
+        p = _points_attribute(element.get("points"), tag, path)
+        closed = tag == "polygon" or (len(p) > 2 and np.array_equal(p[0], p[-1]))
+        if closed and np.array_equal(p[0], p[-1]):
+            p = p[:-1]
+        ring = np.concatenate([p, p[:1]]) if closed else p
+        return [([("L", ring[i : i + 2]) for i in range(len(ring) - 1)], closed)]
+    if tag in _BASIC:
+        outline = _basic_shape(element, tag, viewport, path)
+        return [outline] if outline is not None and outline[0] else []
+    return []
 
 
 _BASIC = ("rect", "circle", "ellipse", "line")
@@ -636,6 +669,17 @@ _DRAWN = ("path", "polygon", "polyline", *_BASIC)
 _FLIP = np.diag([1.0, -1.0, 1.0])
 
 
+def _svg_root(path):
+    """The parsed root `<svg>` element of the file, or a clear `OutlineError`."""
+    try:
+        root = ET.fromstring(read_bytes(path))
+    except ET.ParseError as e:
+        raise fail(path, f"is not valid XML/SVG ({one_line(e, 120)}).") from None
+    if _tag(root) != "svg":
+        raise fail(path, f"is not an SVG file (its root element is <{_tag(root)}>).")
+    return root
+
+
 def read_svg(path, samples) -> list[Outline]:
     """Every visible path and basic shape of an SVG file (see `_contours`), one outline
     per subpath, in document order, in the root's user coordinates (its transforms,
@@ -643,14 +687,7 @@ def read_svg(path, samples) -> list[Outline]:
     fill and no stroke, transparent, hidden, `display: none`, from their attributes,
     the style sheets and `style`, or inherited from their groups) are skipped, as a
     renderer would. Each `<path>` and shape is one group (`Outline.group`)."""
-    try:
-        root = ET.fromstring(read_bytes(path))
-    except ET.ParseError as e:
-        raise fail(path, f"is not valid XML/SVG ({one_line(e, 120)}).") from None
-    if root.tag.rsplit("}", 1)[-1] != "svg":
-        raise fail(
-            path, f"is not an SVG file (its root element is <{root.tag.rsplit('}', 1)[-1]}>)."
-        )
+    root = _svg_root(path)
     found = []
     with np.errstate(all="ignore"):  # overflow is checked on the sampled points
         skipped = _contours(root, _FLIP, path, found)
@@ -664,7 +701,7 @@ def read_svg(path, samples) -> list[Outline]:
     check_points(
         path,
         sum(
-            len(s) + 1
+            3 * len(s) + 1  # nodes (a short loop's control points too), or vertices
             if samples == "nodes" or (samples is None and all(k == "L" for k, _ in s))
             else samples or DEFAULT_SAMPLES
             for s, *_ in found
@@ -707,8 +744,6 @@ def page_like(like) -> Page:
     """
     kind = str(like).lower().rsplit(".", 1)[-1]
     if kind == "png":
-        from .raster import png_size
-
         width, height = png_size(like, read_bytes(like))
         return Page(
             {"width": str(width), "height": str(height), "viewBox": f"0 0 {width} {height}"},
@@ -716,10 +751,7 @@ def page_like(like) -> Page:
         )
     if kind != "svg":
         raise fail(like, "`like` must be an .svg or .png file (whose page to take).")
-    try:
-        root = ET.fromstring(read_bytes(like))
-    except ET.ParseError as e:
-        raise fail(like, f"is not valid XML/SVG ({one_line(e, 120)}).") from None
+    root = _svg_root(like)
     names = ("width", "height", "viewBox", "preserveAspectRatio")
     return Page({k: root.get(k) for k in names if root.get(k) is not None}, "scale(1,-1)")
 
@@ -773,6 +805,11 @@ def bezier_subpath(beziers: np.ndarray, closed: bool, group=None) -> Subpath:
                    group)
 
 
+def _attribute(value: str) -> str:
+    """`value` escaped for a double-quoted XML attribute."""
+    return value.replace("&", "&amp;").replace("<", "&lt;").replace('"', "&quot;")
+
+
 def write_drawing(path, subpaths: list[Subpath], like=None, what: str = "the curve") -> None:
     """An SVG file of the subpaths: one `<path>` per shape (subpaths of one `group`;
     a subpath whose group is None is a shape of its own), in order of first appearance.
@@ -789,7 +826,7 @@ def write_drawing(path, subpaths: list[Subpath], like=None, what: str = "the cur
     page = _fitted_page(points) if like is None else page_like(like)
     shapes: dict = {}
     for k, s in enumerate(subpaths):
-        shapes.setdefault(("own", k) if s.group is None else s.group, []).append(s)
+        shapes.setdefault((False, k) if s.group is None else (True, s.group), []).append(s)
     stroke = (f'fill="none" stroke="black" stroke-width="{_stroke_width(points)}" '
               'stroke-linejoin="round"')
     elements = [
@@ -798,7 +835,7 @@ def write_drawing(path, subpaths: list[Subpath], like=None, what: str = "the cur
         + "/>"
         for shape in shapes.values()
     ]
-    root = " ".join(f'{k}="{escape(v, {chr(34): "&quot;"})}"' for k, v in page.attributes.items())
+    root = " ".join(f'{k}="{_attribute(v)}"' for k, v in page.attributes.items())
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<svg xmlns="http://www.w3.org/2000/svg" version="1.1" {root}>',
