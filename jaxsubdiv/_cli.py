@@ -286,10 +286,10 @@ def _refine(args) -> int:
     _check_no_overwrite(args, [(o, p) for o, p in (("-o", args.output), ("--plot", args.plot))
                                if p])
     refined = []
-    for outline in outlines:
+    for outline, group in zip(outlines, _shape_groups(outlines)):
         boundary = args.boundary or ("closed" if outline.closed else "open")
         points = np.asarray(js.refine(outline.points, scheme, args.levels, boundary=boundary))
-        refined.append(js.io.Outline(points, boundary == "closed", outline.group))
+        refined.append(js.io.Outline(points, boundary == "closed", group))
         print(f"{len(outline.points)} -> {len(points)} points ({boundary})")
     if args.output:
         svg = args.output.lower().endswith(".svg")
@@ -499,7 +499,7 @@ def _fit(args) -> int:
         exact = js.io.write_curve_svg(
             path, [np.asarray(r.control_points) for r in results],
             [r.scheme for r in results], boundary=[r.boundary for r in results],
-            groups=[o.group for o in outlines], like=_page_source(args),
+            groups=_shape_groups(outlines), like=_page_source(args),
         )
         kind = "exact Bezier segments" if exact else "polylines of exact limit points"
         print(f"wrote {path} ({kind}, {_shapes(outlines)})")
@@ -545,9 +545,20 @@ def _fit(args) -> int:
     return 1 if failed else 0
 
 
+def _shape_groups(outlines) -> list[int]:
+    """The shape of each contour, for SVG output: the reader's groups; contours of a
+    point list (CSV, NPY, ...), which has no shapes, are one shape, as a glyph's
+    outline and its holes are (and separate contours that do not overlap draw the same
+    either way)."""
+    if all(o.group is None for o in outlines):
+        return [0] * len(outlines)
+    top = max(o.group for o in outlines if o.group is not None)
+    return [top + 1 + i if o.group is None else o.group for i, o in enumerate(outlines)]
+
+
 def _shapes(outlines) -> str:
     """'1 shape', '3 shapes': how many `<path>`s an SVG of these outlines has."""
-    count = len({("own", i) if o.group is None else o.group for i, o in enumerate(outlines)})
+    count = len(set(_shape_groups(outlines)))
     return f"{count} shape{'s' if count != 1 else ''}"
 
 

@@ -565,15 +565,21 @@ def test_bad_input_from_the_installed_script(tmp_path):
 def test_contours_of_different_lengths_share_one_compiled_fit(capsys, tmp_path):
     """Two closed contours of 300 and 517 samples: the second reuses the first one's
     program (both padded to the longer one's bucket), so only the first line says
-    "including compilation"; the fits are those of each contour alone (same errors)."""
+    "including compilation"; the fits are those of each contour alone (same errors).
+    Their SVG is one shape."""
     outlines = [_circle(300).tolist(), (0.5 * _circle(517, center=(5.0, 1.0))).tolist()]
     source = tmp_path / "two.json"
     source.write_text(json.dumps({"outlines": [{"points": p, "closed": True}
                                                for p in outlines]}))
-    status, out, err = cli(capsys, "fit", source, "--n", 12, "--quiet")
+    status, out, err = cli(capsys, "fit", source, "--n", 12, "--quiet", "--svg",
+                           tmp_path / "two.svg")
     assert status == 0, err
     times = re.findall(r"time +[0-9.]+ s(.*)", out)
     assert times == [" (including compilation)", ""]
+    # A point list has no shapes: its contours are one, as a glyph and its holes.
+    svg = (tmp_path / "two.svg").read_text()
+    assert svg.count("<path") == 1 and 'fill-rule="evenodd"' in svg
+    assert len(svg_bezier_paths(svg)) == 2 and "(exact Bezier segments, 1 shape)" in out
     rms = lambda text: re.findall(r"rms error  (\S+)", text)
     for k, points in enumerate(outlines):
         single = tmp_path / f"{k}.csv"
