@@ -304,6 +304,8 @@ def test_loop_regular_limit_is_box_spline(box_spline):
 
 
 tagged_meshes = [
+    ("grid_cc_edge_only", lambda: grid(3, 3), jss.CatmullClark("edge_only"), {}),
+    ("grid_loop_edge_only", lambda: grid(3, 3, triangles=True), jss.Loop("edge_only"), {}),
     ("icosahedron_loop", icosahedron, jss.Loop(), {}),
     ("cube_cc", cube, jss.CatmullClark(), {}),
     ("prism_cc", prism, jss.CatmullClark(), {}),
@@ -674,6 +676,87 @@ def test_doo_sabin_crease_on_closed_mesh():
             assert d.min(axis=1).max() < 1e-13 and d.min(axis=0).max() < 1e-13
 
 
+# ------------------------------------------- boundary interpolation: edge only
+
+
+def single_face_vertices(f):
+    """Each vertex in exactly one face, with that face's neighbors of it (previous,
+    next): plain Python over the face list."""
+    found = []
+    counts = np.bincount(f[f >= 0].ravel())
+    for vertex in np.flatnonzero(counts == 1):
+        (row,) = [r[r >= 0].tolist() for r in f if vertex in r]
+        i = row.index(vertex)
+        found.append((vertex, row[i - 1], row[(i + 1) % len(row)]))
+    return found
+
+
+@pytest.mark.parametrize("triangles", [False, True], ids=["catmull_clark", "loop"])
+def test_edge_only_boundary_vertex_in_one_face_follows_the_curve(triangles):
+    """OpenSubdiv's "edge only" boundary interpolation: a boundary vertex in a single
+    face takes the boundary curve's rules, refined to (a + 6v + b) / 8 and with limit
+    (a + 4v + b) / 6 over its two boundary neighbors, where "edge and corner" (the
+    default) keeps it at v; every other vertex point is the same under both."""
+    v, f = grid(3, 3, triangles=triangles)
+    make = jss.Loop if triangles else jss.CatmullClark
+    mesh = jss.Mesh(v, f)
+    single = single_face_vertices(f)
+    assert len(single) == (2 if triangles else 4)
+    edge_only = np.asarray(jss.refine_mesh(mesh, make("edge_only"), 1).vertices)[: len(v)]
+    corner = np.asarray(jss.refine_mesh(mesh, make(), 1).vertices)[: len(v)]
+    limit_edge_only = np.asarray(jss.limit_positions(mesh, make("edge_only")))
+    limit_corner = np.asarray(jss.limit_positions(mesh, make()))
+    ids = [s for s, _, _ in single]
+    for s, a, b in single:
+        np.testing.assert_allclose(edge_only[s], (v[a] + 6 * v[s] + v[b]) / 8, atol=1e-14)
+        np.testing.assert_allclose(limit_edge_only[s], (v[a] + 4 * v[s] + v[b]) / 6,
+                                   atol=1e-14)
+        np.testing.assert_allclose(corner[s], v[s], atol=1e-14)
+        np.testing.assert_allclose(limit_corner[s], v[s], atol=1e-14)
+    others = np.setdiff1d(np.arange(len(v)), ids)
+    np.testing.assert_allclose(edge_only[others], corner[others], atol=1e-14)
+
+
+def test_edge_only_loop_corners_match_trimesh():
+    """trimesh's Loop applies the boundary curve's rule at a boundary vertex in a single
+    triangle: "edge only", not the default. (Only those vertices are compared: at
+    boundary vertices in three triangles trimesh's points leave the straight boundary
+    line of this planar-boundary grid, which no boundary rule does.)"""
+    trimesh = pytest.importorskip("trimesh")
+    v, f = grid(3, 4, triangles=True, seed=2)
+    theirs, _ = trimesh.remesh.subdivide_loop(v, f, iterations=1)
+    ids = [s for s, _, _ in single_face_vertices(f)]
+    for scheme, same in ((jss.Loop("edge_only"), True), (jss.Loop(), False)):
+        ours = np.asarray(jss.refine_mesh(jss.Mesh(v, f), scheme, 1).vertices)[ids]
+        gap = np.linalg.norm(ours[:, None] - theirs[None], axis=-1).min(axis=1).max()
+        assert (gap < 1e-13) if same else (gap > 1e-2)
+
+
+@pytest.mark.parametrize("quads", [True, False], ids=["catmull_clark", "loop"])
+@pytest.mark.parametrize("seed", [1, 2])
+def test_one_face_sector_normal_is_the_control_triangle(quads, seed):
+    """At a boundary vertex v in one face (edge only), v and its two boundary neighbors
+    p, q refine among themselves by the curve rules; the limit tangent plane is the
+    plane of the triangle (v, p, q) (in Catmull-Clark through a defective eigenvalue
+    1/4: see `sector_stencils`). The normal of the refined surface's corner face at v
+    (limit positions, plain cross product) converges to it level by level."""
+    scheme = jss.CatmullClark("edge_only") if quads else jss.Loop("edge_only")
+    v, f = half_fan(1, quads=quads, seed=seed)
+    mesh = jss.Mesh(v, f)
+    normal = np.asarray(jss.limit_normals(mesh, scheme))[0]
+    (row,) = f
+    p, q = v[row[1]], v[row[-1]]
+    assert angle(normal, np.cross(p - v[0], q - v[0])) < 1e-9
+    angles = []
+    for levels in (4, 6, 8):
+        fine = jss.refine_mesh(mesh, scheme, levels)
+        points = np.asarray(jss.limit_positions(fine, scheme))
+        corner = fine.faces[np.any(fine.faces == 0, axis=1)]  # the one face at v
+        angles.append(angle(face_normal_sum(points, corner, 0), normal))
+    # Catmull-Clark: 6.4, 1.6, 0.39 degrees (seed 1); 21, 5.4, 1.35 (seed 2).
+    assert angles[2] < 2.0 and (quads is False or angles[2] < angles[1] < angles[0])
+
+
 # ------------------------------------------------------------ trimesh's Loop
 
 
@@ -797,6 +880,9 @@ def test_errors():
         jss.Refiner(jss.Mesh(np.zeros((5, 3)), bowtie), jss.Loop())
     with pytest.raises(ValueError, match="triangle mesh"):
         jss.Refiner(jss.Mesh(v, f), jss.Loop())
+    with pytest.raises(ValueError, match=r"`CatmullClark\(boundary_interpolation=\.\.\.\)` "
+                       "must be 'edge_and_corner' or 'edge_only', got 'none'"):
+        jss.CatmullClark("none")
     with pytest.raises(ValueError, match="`corners`: vertex 0 is on 0 sharp"):
         jss.Refiner(jss.Mesh(v, f, corners=[0]), jss.DooSabin())
     with pytest.raises(ValueError, match="no limit stencils"):

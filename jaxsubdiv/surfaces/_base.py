@@ -88,9 +88,17 @@ class AbstractSurfaceScheme(eqx.Module):
     A scheme turns the *topology* of a mesh into stencil tables on the host (numpy,
     vectorized); the tables are then applied to vertex data in JAX. Subclasses are
     [`jaxsubdiv.surfaces.Loop`][], [`jaxsubdiv.surfaces.CatmullClark`][] and
-    [`jaxsubdiv.surfaces.DooSabin`][]. Schemes have no parameters; they are modules so
+    [`jaxsubdiv.surfaces.DooSabin`][]. Schemes have no numeric parameters (Loop and
+    Catmull-Clark have one static option, `boundary_interpolation`); they are modules so
     that they can sit inside other modules and pass through `jax.jit`.
     """
+
+    @property
+    def boundary_corners(self) -> bool:
+        """Whether a boundary vertex in a single face is a corner, kept where it is
+        (OpenSubdiv's "edge and corner" boundary interpolation); otherwise it follows
+        the boundary curve's rule like any boundary vertex ("edge only")."""
+        return True
 
     #: Peak host memory of building a `Refiner`, in bytes per half-edge of the refined
     #: mesh (topology, stencil tables, refined faces), measured in float64 on meshes of
@@ -326,10 +334,29 @@ def sector_stencils(topo: Topology, position: Sparse, ring, local):
         rows_v += [sel[c], sel[c]]
         cols_v += [pk[c], v[c]]
         w_v += [np.ones(c.sum()), -np.ones(c.sum())]
+        side = topo.vertex_type[vertex[sel]] != CORNER  # boundary or crease sectors
+        if k == 1:
+            # One face between two sharp edges (a boundary vertex in a single face under
+            # "edge only" boundary interpolation, or a crease turning within a face):
+            # v, p_0, p_1 refine among themselves by the curve rules (the vertex rule
+            # (1, 6, 1) / 8 and midpoints), so their local matrix has eigenvalues 1,
+            # 1/2 (p_0 - p_1) and 1/4 (the curve's second difference). In Catmull-
+            # Clark the face point makes 1/4 a double, defective eigenvalue, whose
+            # Jordan chain also ends on the second difference: either way the tangent
+            # plane is spanned by p_0 - p_1 and (p_0 + p_1) / 2 - v, the plane of the
+            # control triangle (v, p_0, p_1). Refined faces approach it as 1/level.
+            s = sel[side]
+            kind[s] = EXACT
+            rows_u += [s, s]
+            cols_u += [p0[side], pk[side]]
+            w_u += [np.ones(len(s)), -np.ones(len(s))]
+            rows_v += [s, s, s]
+            cols_v += [p0[side], pk[side], v[side]]
+            w_v += [np.full(len(s), 0.5), np.full(len(s), 0.5), -np.ones(len(s))]
+            continue
         matrix, perm = local(int(k))
         interior = np.setdiff1d(np.arange(1, matrix.shape[0]), [1, k + 1])
         mask, exact = cross_tangent(matrix, perm, interior)
-        side = topo.vertex_type[vertex[sel]] != CORNER  # boundary or crease sectors
         if exact and np.any(side):
             s = sel[side]
             kind[s] = EXACT
@@ -433,3 +460,19 @@ def limit_stencils(topo: Topology, position: Sparse, tangent_u: Sparse, tangent_
         position, merge(tangent_u, su), merge(tangent_v, sv), topo.vertex_type == SMOOTH,
         su, sv, vertex, kind, corner_points, corner_sector,
     )  # fmt: skip
+
+
+#: OpenSubdiv's names for how boundary vertices in a single face are treated
+#: (`Sdc::Options::VtxBoundaryInterpolation`, without "none").
+BOUNDARY_INTERPOLATION = ("edge_and_corner", "edge_only")
+
+
+def check_boundary_interpolation(scheme) -> None:
+    """A `ValueError` naming the scheme and the values for an unknown
+    `boundary_interpolation`."""
+    if scheme.boundary_interpolation not in BOUNDARY_INTERPOLATION:
+        raise ValueError(
+            f"`{type(scheme).__name__}(boundary_interpolation=...)` must be "
+            f"{' or '.join(map(repr, BOUNDARY_INTERPOLATION))}, got "
+            f"{scheme.boundary_interpolation!r}."
+        )

@@ -1,5 +1,6 @@
-from typing import ClassVar
+from typing import ClassVar, Literal
 
+import equinox as eqx
 import numpy as np
 
 from ._base import (
@@ -7,6 +8,7 @@ from ._base import (
     Counts,
     Level,
     LimitStencils,
+    check_boundary_interpolation,
     edge_end_rule,
     limit_stencils,
     refined_tags,
@@ -92,9 +94,15 @@ class CatmullClark(AbstractSurfaceScheme):
     it is $C^1$.
 
     Boundary edges and tagged creases follow the cubic B-spline curve rules (edge
-    midpoint, vertex $\frac18 a + \frac34 v + \frac18 b$); corners (tagged, a boundary
-    vertex in a single face, or a vertex on three or more sharp edges) are kept. A
-    vertex on one crease (a *dart*) uses the smooth rule.
+    midpoint, vertex $\frac18 a + \frac34 v + \frac18 b$); corners (tagged, or a vertex
+    on three or more sharp edges) are kept. A vertex on one crease (a *dart*) uses the
+    smooth rule.
+
+    **Arguments:**
+
+    - `boundary_interpolation`: what a boundary vertex in a single face does, by
+      OpenSubdiv's names: `"edge_and_corner"` (default) keeps it as a corner;
+      `"edge_only"` gives it the boundary curve's rule, like any boundary vertex.
 
     The usual scheme for quad-dominant meshes (film, CAD). Refined vertex order: the
     $V$ vertex points, then one edge point per edge (lexicographic order of the
@@ -105,7 +113,18 @@ class CatmullClark(AbstractSurfaceScheme):
     and T. Truong, "Subdivision surfaces in character animation", SIGGRAPH 1998.
     """
 
+    boundary_interpolation: Literal["edge_and_corner", "edge_only"] = eqx.field(
+        static=True, default="edge_and_corner"
+    )
+
     bytes_per_half_edge: ClassVar[int] = 400  # measured 360-440
+
+    def __check_init__(self):
+        check_boundary_interpolation(self)
+
+    @property
+    def boundary_corners(self) -> bool:
+        return self.boundary_interpolation == "edge_and_corner"
 
     def refined_counts(self, c: Counts) -> Counts:
         # Exact: a vertex, edge and face point each; every k-gon becomes k quads.
@@ -173,7 +192,8 @@ class CatmullClark(AbstractSurfaceScheme):
         V = topo.num_vertices
         if np.any(topo.sizes != 4):
             first = self.level(topo, creases, corners)
-            fine = build_topology(first.faces, first.stencil.shape[0], first.creases, first.corners)
+            fine = build_topology(first.faces, first.stencil.shape[0], first.creases,
+                                  first.corners, self.boundary_corners)
             stencils = self.limit(fine, first.creases, first.corners)
             return stencils.compose(np.arange(V), first.stencil)
         n = topo.valence.astype(np.float64)

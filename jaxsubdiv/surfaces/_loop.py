@@ -1,5 +1,6 @@
-from typing import ClassVar
+from typing import ClassVar, Literal
 
+import equinox as eqx
 import numpy as np
 
 from ._base import (
@@ -7,6 +8,7 @@ from ._base import (
     Counts,
     Level,
     LimitStencils,
+    check_boundary_interpolation,
     edge_end_rule,
     limit_stencils,
     refined_tags,
@@ -74,9 +76,16 @@ class Loop(AbstractSurfaceScheme):
     spline: $C^2$; at extraordinary vertices it is $C^1$.
 
     Boundary edges and tagged creases follow the cubic B-spline curve rules (edge
-    midpoint, vertex $\frac18 a + \frac34 v + \frac18 b$); corners (tagged, a boundary
-    vertex in a single triangle, or a vertex on three or more sharp edges) are kept
-    (Hoppe et al. 1994). A vertex on one crease (a *dart*) uses the smooth rule.
+    midpoint, vertex $\frac18 a + \frac34 v + \frac18 b$; Hoppe et al. 1994); corners
+    (tagged, or a vertex on three or more sharp edges) are kept. A vertex on one crease
+    (a *dart*) uses the smooth rule.
+
+    **Arguments:**
+
+    - `boundary_interpolation`: what a boundary vertex in a single triangle does, by
+      OpenSubdiv's names: `"edge_and_corner"` (default) keeps it as a corner;
+      `"edge_only"` gives it the boundary curve's rule, like any boundary vertex (as
+      trimesh's Loop does).
 
     Use it for triangle meshes; for quads or mixed polygons use
     [`jaxsubdiv.surfaces.CatmullClark`][].
@@ -89,7 +98,18 @@ class Loop(AbstractSurfaceScheme):
     reconstruction", SIGGRAPH 1994.
     """
 
+    boundary_interpolation: Literal["edge_and_corner", "edge_only"] = eqx.field(
+        static=True, default="edge_and_corner"
+    )
+
     bytes_per_half_edge: ClassVar[int] = 200  # measured 120-180
+
+    def __check_init__(self):
+        check_boundary_interpolation(self)
+
+    @property
+    def boundary_corners(self) -> bool:
+        return self.boundary_interpolation == "edge_and_corner"
 
     def refined_counts(self, c: Counts) -> Counts:
         # Exact for triangles: an edge point per edge, four triangles per triangle.

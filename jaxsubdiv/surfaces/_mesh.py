@@ -106,9 +106,10 @@ class Mesh(eqx.Module):
       rules, so the surface keeps a sharp feature along them.
     - `corners`: vertex indices held fixed (interpolated) by refinement.
 
-    Boundary edges are always treated as creases, and a boundary vertex with a single
-    incident face is a corner. [`jaxsubdiv.surfaces.refine_mesh`][] carries the tags
-    over to the refined mesh.
+    Boundary edges are always treated as creases; a boundary vertex with a single
+    incident face is a corner unless the scheme's `boundary_interpolation` is
+    `"edge_only"` (Loop, Catmull-Clark). [`jaxsubdiv.surfaces.refine_mesh`][] carries
+    the tags over to the refined mesh.
     """
 
     vertices: Float[Array, "V C"]

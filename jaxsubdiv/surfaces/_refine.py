@@ -60,9 +60,9 @@ def _check_surface_memory(topo, scheme, levels: int, budget: float) -> None:
             )
 
 
-def _topology(mesh: Mesh, num_vertices: int | None = None):
-    n = mesh.num_vertices if num_vertices is None else num_vertices
-    return build_topology(mesh.faces, n, mesh.creases, mesh.corners)
+def _topology(mesh: Mesh, scheme: AbstractSurfaceScheme):
+    return build_topology(mesh.faces, mesh.num_vertices, mesh.creases, mesh.corners,
+                          scheme.boundary_corners)
 
 
 class Refiner(eqx.Module):
@@ -134,11 +134,11 @@ class Refiner(eqx.Module):
         count = mesh.num_vertices
         faces, creases, corners = mesh.faces, mesh.creases, mesh.corners
         tables = []
-        topo = build_topology(faces, count, creases, corners)
+        topo = build_topology(faces, count, creases, corners, scheme.boundary_corners)
         _check_surface_memory(topo, scheme, levels, memory_budget)
         for level in range(levels):
             if level:
-                topo = build_topology(faces, count, creases, corners)
+                topo = build_topology(faces, count, creases, corners, scheme.boundary_corners)
             step = scheme.level(topo, creases, corners)
             tables.append(StencilTable.from_sparse(step.stencil))
             count = step.stencil.shape[0]
@@ -298,7 +298,7 @@ class Limit(eqx.Module):
         - `scheme`: `Loop()` or `CatmullClark()`.
         """
         _check(mesh, scheme)
-        topo = _topology(mesh)
+        topo = _topology(mesh, scheme)
         stencils = scheme.limit(topo, mesh.creases, mesh.corners)
         self.position = StencilTable.from_sparse(stencils.position)
         self.tangent_u = StencilTable.from_sparse(stencils.tangent_u)

@@ -164,8 +164,14 @@ def build_topology(
     num_vertices: int,
     creases: np.ndarray | None = None,
     corners: np.ndarray | None = None,
+    boundary_corners: bool = True,
 ) -> Topology:
     """Check a padded face array and build its half-edge [`Topology`][].
+
+    Vertex types: a corner is tagged, on three or more sharp edges, isolated, or (when
+    `boundary_corners`, OpenSubdiv's "edge and corner" boundary interpolation) a
+    boundary vertex in a single face; a crease vertex is on two sharp edges (boundary
+    edges are sharp); the rest are smooth.
 
     Raises a `ValueError` that names the offending face, edge or vertex for faces with
     fewer than three vertices, a repeated vertex or an out-of-range index, for edges
@@ -250,7 +256,8 @@ def build_topology(
     nsharp = np.bincount(edges[sharp].reshape(-1), minlength=V)
     vertex_type = np.full(V, SMOOTH, np.int8)
     vertex_type[nsharp == 2] = CREASE
-    corner = tagged_corner | (nsharp > 2) | (boundary_vertex & (nfaces == 1)) | (valence == 0)
+    single = boundary_vertex & (nfaces == 1) if boundary_corners else np.zeros(V, bool)
+    corner = tagged_corner | (nsharp > 2) | single | (valence == 0)
     vertex_type[corner] = CORNER
     topo = dataclasses.replace(topo, vertex_type=vertex_type)
 
