@@ -286,14 +286,18 @@ def _refine(args) -> int:
     _check_no_overwrite(args, [(o, p) for o, p in (("-o", args.output), ("--plot", args.plot))
                                if p])
     refined = []
-    for outline, group in zip(outlines, _shape_groups(outlines)):
+    for outline in outlines:
         boundary = args.boundary or ("closed" if outline.closed else "open")
         points = np.asarray(js.refine(outline.points, scheme, args.levels, boundary=boundary))
-        refined.append(js.io.Outline(points, boundary == "closed", group))
+        refined.append(js.io.Outline(points, boundary == "closed", outline.group))
         print(f"{len(outline.points)} -> {len(points)} points ({boundary})")
     if args.output:
-        svg = args.output.lower().endswith(".svg")
-        js.io.write_outlines(args.output, refined, like=_page_source(args) if svg else None)
+        if args.output.lower().endswith(".svg"):
+            refined = [js.io.Outline(o.points, o.closed, g)
+                       for o, g in zip(refined, _shape_groups(refined))]
+            js.io.write_outlines(args.output, refined, like=_page_source(args))
+        else:
+            js.io.write_outlines(args.output, refined)
         print(f"wrote {args.output}")
     if args.plot:
         figure = _new_figure((6, 6))
@@ -546,14 +550,15 @@ def _fit(args) -> int:
 
 
 def _shape_groups(outlines) -> list[int]:
-    """The shape of each contour, for SVG output: the reader's groups; contours of a
-    point list (CSV, NPY, ...), which has no shapes, are one shape, as a glyph's
-    outline and its holes are (and separate contours that do not overlap draw the same
-    either way)."""
-    if all(o.group is None for o in outlines):
-        return [0] * len(outlines)
-    top = max(o.group for o in outlines if o.group is not None)
-    return [top + 1 + i if o.group is None else o.group for i, o in enumerate(outlines)]
+    """The shape of each contour, for SVG output: the reader's groups. A point list
+    (CSV, NPY, ...) has no shapes: its closed contours are taken as one shape filled
+    even-odd, as a glyph's outline and its holes are (overlapping closed contours then
+    cancel where they overlap), and each open contour is a stroked shape of its own."""
+    known = [o.group for o in outlines if o.group is not None]
+    fresh = iter(range(max(known, default=-1) + 1, 2**62))
+    closed = next(fresh)
+    return [o.group if o.group is not None else closed if o.closed else next(fresh)
+            for o in outlines]
 
 
 def _shapes(outlines) -> str:

@@ -576,10 +576,22 @@ def test_contours_of_different_lengths_share_one_compiled_fit(capsys, tmp_path):
     assert status == 0, err
     times = re.findall(r"time +[0-9.]+ s(.*)", out)
     assert times == [" (including compilation)", ""]
-    # A point list has no shapes: its contours are one, as a glyph and its holes.
+    # A point list has no shapes: its closed contours are one, as a glyph and its holes.
     svg = (tmp_path / "two.svg").read_text()
     assert svg.count("<path") == 1 and 'fill-rule="evenodd"' in svg
     assert len(svg_bezier_paths(svg)) == 2 and "(exact Bezier segments, 1 shape)" in out
+    # An open contour is a stroked shape of its own; the closed ones stay filled; and
+    # only the SVG is grouped (a refined JSON keeps the input's no-group).
+    mixed = tmp_path / "mixed.json"
+    mixed.write_text(json.dumps({"outlines": [
+        {"points": outlines[0], "closed": True},
+        {"points": (np.array(outlines[1])[:40] + 9).tolist(), "closed": False}]}))
+    for out_file in ("mixed.svg", "mixed-out.json"):
+        status, _, err = cli(capsys, "refine", mixed, "--levels", 1, "-o", tmp_path / out_file)
+        assert status == 0, err
+    paths = re.findall(r"<path [^>]*>", (tmp_path / "mixed.svg").read_text())
+    assert len(paths) == 2 and "evenodd" in paths[0] and 'fill="none"' in paths[1]
+    assert "group" not in (tmp_path / "mixed-out.json").read_text()
     rms = lambda text: re.findall(r"rms error  (\S+)", text)
     for k, points in enumerate(outlines):
         single = tmp_path / f"{k}.csv"

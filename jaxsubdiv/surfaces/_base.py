@@ -300,6 +300,8 @@ def sector_stencils(topo: Topology, position: Sparse, ring, local):
       `ring(topo, half_edges) -> (n, m)` columns: the vertex, then $p_0, \dots, p_k$
       along the sector's edges, then scheme-specific points), kind `EXACT`, or kind
       `APPROXIMATE` with zero rows where that sector has no tangent plane;
+    - for a sector of one face (not at a corner), in closed form: $p_0 - p_1$ and
+      $\frac12(p_0 + p_1) - v$, the control triangle's plane, kind `EXACT`;
     - at a corner: the two sharp-edge tangents $p_0 - v$ and $p_k - v$ (the limit
       tangents of the crease curves at a clamped end), kind `CORNER_TANGENTS`;
       `APPROXIMATE` if the sector starts and ends on the same sharp edge;
@@ -344,7 +346,8 @@ def sector_stencils(topo: Topology, position: Sparse, ring, local):
             # Clark the face point makes 1/4 a double, defective eigenvalue, whose
             # Jordan chain also ends on the second difference: either way the tangent
             # plane is spanned by p_0 - p_1 and (p_0 + p_1) / 2 - v, the plane of the
-            # control triangle (v, p_0, p_1). Refined faces approach it as 1/level.
+            # control triangle (v, p_0, p_1). Nearby surface normals approach it
+            # geometrically in Loop, but only as 1/level in Catmull-Clark.
             s = sel[side]
             kind[s] = EXACT
             rows_u += [s, s]

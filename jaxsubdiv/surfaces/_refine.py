@@ -264,15 +264,18 @@ class Limit(eqx.Module):
       of the sector's local subdivision matrix (computed once per sector size on the
       host). This is exact where the eigenvalue condition for a tangent plane holds
       with these rules: sectors of 2 to 5 triangles (Loop) and 2 or 3 quads
-      (Catmull-Clark). A boundary vertex has one sector, and its normal is that
+      (Catmull-Clark), and sectors of one face, whose tangent plane is the control
+      triangle's $(v, p_0, p_1)$ (a boundary vertex in one face under "edge only", a
+      crease turning within a face; zero when $v$ lies on the chord $p_0 p_1$). A
+      boundary vertex has one sector, and its normal is that
       sector's; an interior crease vertex has two, and `normals` returns the
       normalized sum of the two unit sector normals (the surface has two tangent
       planes there);
     - corners: per sector, the cross product of the two crease-curve tangents
       $p_0 - v$ and $p_k - v$ (the limit tangents at a clamped curve end), oriented
       like the faces; the sum over sectors, normalized;
-    - other sectors (1 face, or more faces than above): the approximation of the
-      normalized sum of the cross products of the limit positions' face edges.
+    - other sectors (more faces than above): the approximation of the normalized sum
+      of the cross products of the limit positions' face edges.
 
     `tangents` returns the two exact tangents at smooth vertices and at boundary
     vertices with an exact sector (along the boundary, across it), zeros elsewhere.
