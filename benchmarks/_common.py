@@ -8,6 +8,7 @@ import json
 import os
 import pathlib
 import platform
+import statistics
 import subprocess
 import sys
 
@@ -36,6 +37,11 @@ def header(**extra) -> dict:
         "load_start": load(),
         **extra,
     }
+
+
+def median_range(values) -> str:
+    """`median (min-max)` of seconds, two decimals: how the results tables show runs."""
+    return f"{statistics.median(values):.2f} ({min(values):.2f}-{max(values):.2f})"
 
 
 def load() -> list[float]:

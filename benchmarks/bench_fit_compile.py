@@ -109,7 +109,7 @@ def markdown(report: dict) -> str:
     labels = [tree["label"] for tree in report["trees"]]
     lines += ["| program | tree | first | trace | lower | compile | warm | first / "
               f"{labels[0]} | value |", "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
-    fmt = lambda xs: f"{statistics.median(xs):.2f} ({min(xs):.2f}-{max(xs):.2f})"
+    fmt = _common.median_range
     for program in report["programs"]:
         base = None
         for tree in report["trees"]:

@@ -18,7 +18,6 @@ path; the Markdown goes beside it).
 """
 
 import json
-import statistics
 import sys
 from pathlib import Path
 
@@ -84,7 +83,7 @@ def markdown(report: dict) -> str:
              "(400 samples padded to 448, 1024 curve samples).", "",
              "| program | trace | lower | compile | instructions | fused kernels |",
              "|---|---:|---:|---:|---:|---:|"]
-    fmt = lambda xs: f"{statistics.median(xs):.2f} ({min(xs):.2f}-{max(xs):.2f})"
+    fmt = _common.median_range
     for program in PROGRAMS:
         runs = [r for r in report["runs"] if r["program"] == program]
         lines.append(f"| `{program}` | {fmt([r['trace'] for r in runs])} | "

@@ -147,7 +147,7 @@ def _read_inputs(args, shape_samples: int | None = None, nodes: bool = False):
     points per contour for a built-in shape and for an SVG file's contours when
     --samples is not given (None: the shape's polygon, and an SVG's straight-line
     contours as their corners). `nodes`: without --samples, an SVG's and a glyph's
-    contours are their nodes (the drawing's own polygon) rather than samples."""
+    contours are their nodes (the polygon it was drawn on) rather than samples."""
     js = _js()
     given = [
         name

@@ -399,7 +399,7 @@ def _draws(style: dict, fillable: bool = True) -> bool:
 #: Absolute units in user units (px), CSS 2.1 section 4.3.2: 96 px to the inch.
 _UNITS = {"": 1.0, "px": 1.0, "in": 96.0, "cm": 96 / 2.54, "mm": 96 / 25.4, "pt": 4 / 3,
           "pc": 16.0, "em": 16.0, "ex": 8.0}
-_LENGTH = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([a-z]*|%)\s*$")
+_LENGTH = re.compile(rf"\s*({_NUMBER.pattern})\s*([a-z]*|%)\s*$")
 
 
 def _length(element, name: str, axis: str, viewport, path, default: str = "0") -> float:
@@ -498,7 +498,7 @@ def _view_box(element, path) -> tuple[float, float, float, float] | None:
 _ALIGN = re.compile(r"(?:defer\s+)?(none|x(min|mid|max)y(min|mid|max))(?:\s+(meet|slice))?\s*$")
 
 
-def _viewbox(element, width: float, height: float, path) -> tuple[np.ndarray, tuple]:
+def _viewbox_transform(element, width: float, height: float, path) -> tuple[np.ndarray, tuple]:
     """The transform of a nested `<svg>`'s or a `<symbol>`'s `viewBox` into a viewport
     of `width` x `height` by its `preserveAspectRatio` (SVG 1.1, 7.8: `none` stretches;
     otherwise one scale, the smaller (`meet`, the default) or the larger (`slice`), and
@@ -610,7 +610,7 @@ def _contours(root, matrix: np.ndarray, path, found: list) -> int:
             if tag == "svg":
                 matrix = matrix @ _translate(_length(element, "x", "x", viewport, path),
                                              _length(element, "y", "y", viewport, path))
-            box, viewport = _viewbox(element, *size, path)
+            box, viewport = _viewbox_transform(element, *size, path)
             matrix = matrix @ box
         elif tag == "use":
             href = element.get("href") or element.get(_XLINK_HREF) or ""
