@@ -89,7 +89,8 @@ def uses_tangents(scheme, names, boundary) -> bool:
 
     Needs a C^1 limit at every parameter the solver may visit. Fitted parameters stay in
     their fit interval by construction, so each must have a C^1 interval in the registry
-    (`jaxsubdiv.Parameter.c1`: four-point w in (0, 0.19), split-and-tweak t in (0, 1));
+    (`jaxsubdiv.Parameter.fit_interval`: four-point w in (0, 0.19), split-and-tweak t in
+    (0, 1));
     corner cutting has none (it is C^1 only on the line s = r + 1/2), so fitting r or s
     uses chords. Traced parameter values are assumed to lie in their C^1 intervals (so
     that the model, and the optimum, are the same as for concrete values there). A

@@ -25,6 +25,7 @@ _PUBLIC = {
     "Jarek": "._scheme.split_tweak",
     "SplitTweak": "._scheme.split_tweak",
     # the scheme registry
+    "DivergenceWarning": "._scheme.parameter",
     "Parameter": "._scheme.registry",
     "SchemeInfo": "._scheme.registry",
     "scheme_info": "._scheme.registry",
@@ -150,6 +151,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, eagerly
     from ._scheme.mask_scheme import (
         MaskScheme as MaskScheme,
     )
+    from ._scheme.parameter import DivergenceWarning as DivergenceWarning
     from ._scheme.registry import (
         Parameter as Parameter,
         SchemeInfo as SchemeInfo,

@@ -12,6 +12,7 @@ import os
 import shlex
 import sys
 import time
+import warnings
 from pathlib import Path
 
 
@@ -102,12 +103,14 @@ def _scheme_text(name: str, scheme) -> str:
 
 
 def _option_help(parameters, default=None) -> str:
-    """`four-point tension (default 1/16; -1/4 < w < 1/4)`, from the declarations."""
+    """`four-point tension (default 1/16; any finite w, converges for -1/2 < w < 1/2)`,
+    from the declarations."""
     from ._scheme.parameter import number_text
 
     return "; ".join(
         f"{p.help} (default {number_text(p.default if default is None else default)}; "
-        f"{p.range_text()})"
+        f"{p.range_text()}"
+        + (f", converges for {p.converges_text()}" if p.converges else "") + ")"
         for p in parameters
     )
 
@@ -881,9 +884,15 @@ def main(argv=None) -> int:
     # leaves JAX's global configuration alone).
     jax.config.update("jax_enable_x64", True)
     try:
-        if not args.no_compilation_cache:
-            _enable_cache(args.command)
-        return args.run(args)
+        with warnings.catch_warnings():
+            # A warning (e.g. a scheme built where it diverges) is one line, as errors are.
+            warnings.showwarning = _one_line_warning(args.command)
+            from ._scheme.parameter import DivergenceWarning
+
+            warnings.simplefilter("default", DivergenceWarning)  # shown, not raised
+            if not args.no_compilation_cache:
+                _enable_cache(args.command)
+            return args.run(args)
     except KeyboardInterrupt:
         print(f"jaxsubdiv {args.command}: interrupted", file=sys.stderr)
         return 130
@@ -891,6 +900,16 @@ def main(argv=None) -> int:
         if os.environ.get("JAXSUBDIV_TRACEBACK", "") not in ("", "0"):
             raise
         return _report(args.command, e)
+
+
+def _one_line_warning(command: str):
+    """A `warnings.showwarning` that prints `jaxsubdiv <command>: warning: <message>`."""
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = " ".join(str(message).split())
+        print(f"jaxsubdiv {command}: warning: {text}", file=sys.stderr)
+
+    return show
 
 
 def _report(command: str, error: Exception) -> int:

@@ -483,7 +483,7 @@ class Editor:
         Called by the sliders; calling it moves the slider too.
 
         **Raises:** `ValueError` naming the parameter and its range if `value` is outside
-        it (e.g. `w` outside (-1/4, 1/4)).
+        it (e.g. `w` outside (-1/2, 1/2), where four-point converges).
         """
         value = check_parameter(name, value)
         slider = self.sliders[name]

@@ -29,14 +29,20 @@ def _number(value) -> str:
 
 
 def _check_parameters(args) -> None:
-    """Each of --w, --r, --s, --t in its declared range (one line naming the option),
-    and corner cutting's r < s."""
+    """Each of --w, --r, --s, --t in its declared range and where its scheme converges
+    (the editor draws limit curves; one line naming the option), and corner cutting's
+    r < s."""
     for p in _parameters():
         value = getattr(args, p.name)
         if not bool(p.valid(value)):
             raise ValueError(
                 f"--{p.name} {_number(value)} is out of range: {p.label} needs "
                 f"{p.range_text()}"
+            )
+        if not bool(p.converges_at(value)):
+            raise ValueError(
+                f"--{p.name} {_number(value)} is out of range: the editor draws limit "
+                f"curves, and {p.label} converges only for {p.converges_text()}"
             )
     from ._scheme.registry import scheme_info
 
@@ -93,7 +99,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     for p in _parameters():
         parser.add_argument(
             f"--{p.name}", type=int if p.integer else float, default=p.default,
-            help=f"{p.help} (default {number_text(p.default)}; {p.range_text()})",
+            help=f"{p.help} (default {number_text(p.default)}; "
+                 f"{p.converges_text() or p.range_text()})",
         )
     parser.add_argument("--save-prefix", default="jaxsubdiv-edit",
                         help="path prefix of the files the s key writes (default: jaxsubdiv-edit)")

@@ -114,11 +114,20 @@ PARAMETER_INFO: dict[str, Parameter] = _editor_parameters()
 
 
 def slider_range(parameter: Parameter) -> tuple[float, float]:
-    """The range a slider for `parameter` covers: its valid range, with an open end
-    moved inside by 1% of the range (an open end itself is not a valid value)."""
-    low, high = float(parameter.low), float(parameter.high)
+    """The range a slider for `parameter` covers: its declared `slider` range, or where
+    the scheme converges (its `converges` interval), or else its valid range, with an
+    open end moved inside by 1% of the range (an open end itself is not a valid
+    value)."""
+    if parameter.slider is not None:
+        return tuple(float(v) for v in parameter.slider)
+    if parameter.converges is not None:
+        low, high = (float(v) for v in parameter.converges)
+        low_open = high_open = True
+    else:
+        low, high = float(parameter.low), float(parameter.high)
+        low_open, high_open = parameter.low_open, parameter.high_open
     nudge = 0.01 * (high - low)
-    return (low + nudge if parameter.low_open else low, high - nudge if parameter.high_open else high)
+    return (low + nudge if low_open else low, high - nudge if high_open else high)
 
 
 #: Slider ranges and defaults: `name -> (low, high, default)`.
@@ -141,10 +150,11 @@ def check_parameter(name: str, value) -> float:
         value = float(value)
     except (TypeError, ValueError):
         raise TypeError(f"`{name}` must be a number, got {value!r}.") from None
-    if not parameter.valid(value):
-        raise ValueError(
-            f"{parameter.help}: `{name}` must satisfy {parameter.range_text()}, got {value:g}."
-        )
+    if not (parameter.valid(value) and parameter.converges_at(value)):
+        # The editor draws limit curves: a value where the scheme diverges has none.
+        where = (f"{parameter.converges_text()} (where the scheme converges)"
+                 if parameter.converges else parameter.range_text())
+        raise ValueError(f"{parameter.help}: `{name}` must satisfy {where}, got {value:g}.")
     return value
 
 

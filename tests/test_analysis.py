@@ -11,6 +11,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import warnings
 
 import equinox as eqx
 import jax
@@ -323,6 +324,153 @@ def test_jsr_upper_bound_is_rigorous():
             assert radius <= r.jsr_upper * (1 + 1e-9)
 
 
+# --- Tight brackets, exact values, convergence ranges (#20) ------------------------------
+
+
+def _plain_transition_matrices(coefficients):
+    """N and the matrices T_e[i, j] = q[2i - j + e], with a(z) = 2 ((1+z)/2)^N q(z), by
+    NumPy's polynomial division (written here, independent of `factor_symbol`)."""
+    b = np.trim_zeros(np.asarray(coefficients, dtype=np.float64))
+    n = 0
+    while len(b) > 1:
+        quotient, remainder = np.polynomial.polynomial.polydiv(b, [1.0, 1.0])
+        if abs(remainder).max() > 1e-10 * abs(b).sum():
+            break
+        b, n = quotient, n + 1
+    q = b * 2.0 ** (n - 1)
+    m = len(q) - 1
+    T = np.zeros((2, m, m))
+    for e in (0, 1):
+        for i in range(m):
+            for j in range(m):
+                if 0 <= 2 * i - j + e <= m:
+                    T[e, i, j] = q[2 * i - j + e]
+    return n, T
+
+
+def _brute_force_jsr(T, max_length=9, norm_length=12):
+    """A lower bound (the largest rho(P)^(1/k) over all products up to `max_length`) and
+    an upper bound (the largest ||P||_2^(1/k) over all products of `norm_length`)."""
+    lower, level = 0.0, np.eye(T.shape[-1])[None]
+    for k in range(1, max(max_length, norm_length) + 1):
+        level = np.concatenate([level @ T[0], level @ T[1]])
+        if k <= max_length:
+            lower = max(lower, np.abs(np.linalg.eigvals(level)).max() ** (1 / k))
+        if k == norm_length:
+            upper = np.linalg.norm(level, ord=2, axis=(1, 2)).max() ** (1 / k)
+    return lower, upper
+
+
+def _mask_of(scheme):
+    mask = np.asarray(scheme.host_mask(), dtype=np.float64)
+    return np.concatenate([[0.0], mask]) if scheme.mask_start % 2 else mask
+
+
+# Every built-in scheme over its range: four-point where it converges, split-and-tweak
+# beyond Rossignac's [0, 1], corner cutting across its triangle (off and on s = r + 1/2).
+TIGHT = [
+    *(js.FourPoint(w) for w in (-0.49, -0.44, -0.3, -0.1, 0.0, 0.03, 1 / 16, 0.07, 0.08,
+                                0.1, 0.15, 0.19, 0.2, 0.3, 0.42, 0.49)),
+    *(js.SplitTweak(t) for t in (-8.5, -4, -2, -2 / 3, 0, 0.5, 1, 2.5, 6.5)),
+    *(js.CornerCutting(r, s) for r, s in ((0.05, 0.1), (0.1, 0.3), (0.2, 0.65),
+                                          (0.2, 0.69), (0.2, 0.7), (1 / 3, 2 / 3),
+                                          (0.45, 0.55), (0.01, 0.99), (0.6, 0.95))),
+    js.Chaikin(), js.CubicBSpline(), js.Daubechies(), js.Jarek(),
+    *(js.LaneRiesenfeld(d) for d in (1, 2, 5, 9)),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("scheme", TIGHT, ids=lambda s: js.analyze(s).name)
+def test_holder_brackets_are_tight_decided_and_contain_brute_force_bounds(scheme):
+    """Within 0.01 (the target) and deciding the class; and consistent with bounds from
+    every product up to length 9 and the norms of every product of length 12."""
+    r = js.smoothness(scheme)
+    assert r.holder_upper - r.holder_lower <= 0.01 and r.decided, r
+    n, T = _plain_transition_matrices(_mask_of(scheme))
+    assert n == r.factors
+    if T.shape[-1] == 0:
+        assert r.holder_lower == r.holder_upper == n - 1
+        return
+    lower, upper = _brute_force_jsr(T)
+    assert r.jsr_upper >= lower * (1 - 1e-12), (r.jsr_upper, lower)
+    assert r.jsr_lower <= upper * (1 + 1e-12), (r.jsr_lower, upper)
+
+
+@pytest.mark.parametrize("w", [0.38, 0.4, 0.45, 0.49])
+def test_four_point_exponent_near_its_end_is_minus_one_minus_log2_w(w):
+    """For w >= 0.38 the transition matrix T_1's eigenvalue 4w (computed here) is the
+    joint spectral radius, so alpha = 1 - log2(4 w) = -1 - log2 w, proven exactly."""
+    n, T = _plain_transition_matrices(_mask_of(js.FourPoint(w)))
+    assert n == 2 and np.abs(np.linalg.eigvals(T[1]) - 4 * w).min() < 1e-12
+    r = js.smoothness(js.FourPoint(w))
+    assert r.method == "invariant polytope" and r.holder_upper - r.holder_lower < 1e-8
+    assert r.holder_lower - 1e-9 <= -1 - math.log2(w) <= r.holder_upper + 1e-9
+
+
+def test_four_point_and_split_tweak_class_boundaries():
+    """Converges for -1/2 < w < 1/2 (T's eigenvalue 4w reaches 2 at the ends), C1 for
+    0 < w < w*, w* the real root of 32 w^3 + 4 w - 1 (Hechler, Mößner, Reif 2009);
+    split-and-tweak's eigenvalue 1 + t gives alpha <= 3 - log2|1 + t|, so its classes end
+    at |1 + t| = 8, 4, 2: converges on (-9, 7), C1 on (-5, 3), C2 on (-3, 1)."""
+    roots = np.roots([32, 0, 4, -1])
+    w_star = float(roots[np.abs(roots.imag) < 1e-12].real[0])
+    assert w_star == pytest.approx(0.19273, abs=1e-5)
+    cases = [
+        (js.FourPoint, [(-0.499, 0), (-0.501, -1), (0.499, 0), (0.501, -1),
+                        (w_star - 1e-5, 1), (w_star + 1e-5, 0), (1e-4, 1), (-1e-4, 0)]),
+        (js.SplitTweak, [(-8.99, 0), (-9.01, -1), (6.99, 0), (7.01, -1), (-4.99, 1),
+                         (-5.01, 0), (2.99, 1), (3.01, 0), (-2.99, 2), (-3.01, 1),
+                         (0.99, 2), (1.01, 1)]),
+    ]  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", js.DivergenceWarning)
+        for cls, values in cases:
+            for value, continuity in values:
+                r = js.smoothness(cls(value))
+                assert (r.continuity, r.decided) == (continuity, True), (cls, value, r)
+    # The declarations say the same.
+    assert js.scheme_info("four-point").parameter("w").converges == (-1 / 2, 1 / 2)
+    assert js.scheme_info("split-tweak").parameter("t").converges == (-9, 7)
+    assert js.scheme_info("split-tweak").parameter("t").c1 == (-5, 3)
+
+
+def test_divergent_values_build_with_a_warning():
+    with pytest.warns(js.DivergenceWarning, match=r"FourPoint\(w\).*-1/2 < w < 1/2"):
+        scheme = js.FourPoint(0.6)
+    refined = js.refine(_polygon(), scheme, 2)  # the rule is still applied
+    assert refined.shape == (36, 2) and np.all(np.isfinite(refined))
+    assert not js.smoothness(scheme).converges
+    with pytest.warns(js.DivergenceWarning, match=r"SplitTweak\(t\)"):
+        js.SplitTweak(-10)
+    with pytest.warns(js.DivergenceWarning):
+        js.FourPoint(jnp.array([0.1, -0.7]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        js.FourPoint(0.3), js.FourPoint(-0.45), js.SplitTweak(2.0)
+        jax.jit(lambda w: js.FourPoint(w).mask())(0.7)  # traced: not checked
+    for bad in (math.nan, math.inf, -math.inf):
+        with pytest.raises(ValueError, match="finite"):
+            js.FourPoint(bad)
+        with pytest.raises(ValueError, match="finite"):
+            js.SplitTweak(bad)
+
+
+def test_polytope_closes_on_the_golden_ratio_pair_and_bounds_otherwise():
+    """{[[1, 1], [0, 1]], [[1, 0], [1, 1]]} has joint spectral radius the golden ratio,
+    reached by their product (Jungers 2009, "The joint spectral radius", example 1.1)."""
+    from jaxsubdiv._analysis.polytope import polytope_upper_bound
+
+    T = np.array([[[1.0, 1.0], [0.0, 1.0]], [[1.0, 0.0], [1.0, 1.0]]])
+    golden = (1 + math.sqrt(5)) / 2
+    bound, exact = polytope_upper_bound(T, T[0] @ T[1], golden)
+    assert exact and golden <= bound <= golden * (1 + 1e-8)
+    # A wrong candidate (T0 alone, radius 1) cannot close; the bound it returns once
+    # the budget is spent is still an upper bound (at least the golden ratio).
+    bound, exact = polytope_upper_bound(T, T[0] @ T[1] @ T[1], (golden**3 / 2) ** (1 / 3),
+                                        max_vertices=6)
+    assert not exact and bound >= golden * (1 - 1e-12)
+
+
 def test_sub_mask_condition_and_divergence_are_reported():
     r = js.smoothness(_NotAffine())
     assert (r.converges, r.continuity) == (False, -1)
@@ -400,7 +548,7 @@ def test_results_are_host_values_not_pytrees():
     # The fields (names and order) of the former modules, arrays on the host, read-only.
     assert [f.name for f in dataclasses.fields(s)] == [
         "converges", "holder_lower", "holder_upper", "continuity", "decided", "factors",
-        "jsr_lower", "jsr_upper", "reason"]  # fmt: skip
+        "jsr_lower", "jsr_upper", "reason", "method"]  # fmt: skip
     assert [f.name for f in dataclasses.fields(a)] == [
         "name", "mask", "mask_start", "support", "primal", "interpolating", "location",
         "neighborhood", "local_matrix", "eigenvalues", "limit_stencil", "tangent_stencil",

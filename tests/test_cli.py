@@ -491,7 +491,7 @@ def test_bad_input_is_one_line_and_status_2(capsys, tmp_path):
         ("fit", *shape, "-o", tmp_path / "nowhere" / "out.json"),
         ("fit", *shape, "--plot", tmp_path / "fit.doc"),
         ("fit", "--text", "o", "-o", tmp_path / "two.npy"),  # two contours, one .npy
-        ("analyze", "--scheme", "four-point", "--w", 0.3),
+        ("analyze", "--scheme", "four-point", "--w", "nan"),
         ("gallery", "-o", tmp_path / "g", "--shapes", "teapot"),
         ("gallery", "-o", tmp_path / "g", "--levels", "0,x"),
         ("gallery",),  # -o is required
@@ -514,19 +514,17 @@ def test_bad_input_is_one_line_and_status_2(capsys, tmp_path):
     assert "--n 8 is too many control points" in cli(capsys, "fit", ok, "--n", 8)[2]
 
 
-# The valid ranges as the papers and docstrings give them (not read from the registry):
-# four-point -1/4 < w < 1/4 (Dyn, Levin, Gregory 1987), corner cutting 0 < r < s < 1,
-# split-and-tweak 0 <= t <= 1 (Rossignac 2004), Lane-Riesenfeld 1 <= degree <= 55.
+# The valid ranges as the docstrings give them (not read from the registry): any finite
+# w and t (where they converge is the analysis' to say, #20), corner cutting
+# 0 < r < s < 1, Lane-Riesenfeld 1 <= degree <= 55.
 _OUT_OF_RANGE = [
-    (("--scheme", "four-point", "--w", 0.25), "--w 0.25", "-1/4 < w < 1/4"),
-    (("--scheme", "four-point", "--w", -0.3), "--w -0.3", "-1/4 < w < 1/4"),
-    (("--scheme", "four-point", "--w", "nan"), "--w nan", "-1/4 < w < 1/4"),
+    (("--scheme", "four-point", "--w", "inf"), "--w inf", "any finite w"),
+    (("--scheme", "four-point", "--w", "nan"), "--w nan", "any finite w"),
     (("--scheme", "corner-cutting", "--r", 0), "--r 0", "0 < r < 1"),
     (("--scheme", "corner-cutting", "--s", 1), "--s 1", "0 < s < 1"),
     (("--scheme", "corner-cutting", "--r", 0.8, "--s", 0.75), "--r 0.8, --s 0.75",
      "0 < r < s < 1"),
-    (("--scheme", "split-tweak", "--t", 1.5), "--t 1.5", "0 <= t <= 1"),
-    (("--scheme", "split-tweak", "--t", -0.1), "--t -0.1", "0 <= t <= 1"),
+    (("--scheme", "split-tweak", "--t", "inf"), "--t inf", "any finite t"),
     (("--scheme", "lane-riesenfeld", "--degree", 0), "--degree 0", "1 <= degree <= 55"),
     (("--scheme", "lane-riesenfeld", "--degree", 56), "--degree 56", "1 <= degree <= 55"),
 ]
@@ -553,6 +551,22 @@ def test_out_of_range_scheme_options_are_one_line_naming_the_option(capsys, tmp_
         assert line.startswith(f"jaxsubdiv {command}: error: {shown}"), line
         assert text in line, line
         assert not list(tmp_path.iterdir())  # refused before any work
+
+
+def test_a_divergent_parameter_refines_with_one_warning_line(capsys, tmp_path):
+    """w = 0.6 is valid but outside -1/2 < w < 1/2, where four-point converges: the
+    command refines and says so in one line; analyze reports the divergence."""
+    status, out, err = cli(capsys, "refine", "--shape", "star", "--scheme", "four-point",
+                           "--w", 0.6, "-o", tmp_path / "out.csv")
+    assert status == 0, err
+    (line,) = err.strip().splitlines()
+    assert line.startswith("jaxsubdiv refine: warning: `FourPoint(w)` = 0.6 is outside "
+                           "-1/2 < w < 1/2"), line
+    status, out, err = cli(capsys, "analyze", "--scheme", "four-point", "--w", 0.6)
+    assert status == 0 and "does not converge" in out, (out, err)
+    status, out, err = cli(capsys, "edit", "--shape", "star", "--w", 0.6, "--png",
+                           tmp_path / "e.png")
+    assert status == 2 and "converges only for -1/2 < w < 1/2" in err, err
 
 
 def test_bad_input_from_the_installed_script(tmp_path):

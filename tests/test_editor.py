@@ -516,42 +516,45 @@ def test_state_smoothness_labels_against_published_exponents():
 
 
 def test_parameters_out_of_range_are_clear_errors():
-    # Ranges from the schemes' papers: four-point converges for -1/4 < w < 1/4 (Dyn,
-    # Levin, Gregory 1987), corner cutting needs 0 < r < s < 1, split-tweak 0 <= t <= 1.
+    # The editor draws limit curves, so its ranges are where the schemes converge:
+    # four-point -1/2 < w < 1/2 and split-tweak -9 < t < 7 (test_analysis checks both
+    # against the transition matrices' eigenvalues); corner cutting needs 0 < r < s < 1.
     state = EditorState(SQUARE, curves=ALL, levels=2)
-    for name, bad in (("w", 0.3), ("w", 0.25), ("w", -0.25), ("r", 0.0), ("s", 1.0), ("t", 1.01), ("t", -0.5)):
+    for name, bad in (("w", 0.5), ("w", 0.6), ("w", -0.5), ("r", 0.0), ("s", 1.0), ("t", 7.0),
+                      ("t", -9.5), ("w", float("nan"))):
         with pytest.raises(ValueError, match=rf"`{name}`.*{name} <") as error:
             state.set_parameter(name, bad)
-        assert "1" in str(error.value)  # the range's bounds are named
+        assert "1" in str(error.value) or "9" in str(error.value)  # the bounds are named
     assert state.parameters == {"w": 1 / 16, "r": 0.25, "s": 0.75, "t": 0.5}
-    with pytest.raises(ValueError, match=r"`w`.*-1/4 < w < 1/4"):
-        state.set_parameter("w", 0.3)
-    for name, good in (("w", 0.2499), ("w", -0.2499), ("t", 1.0), ("t", 0.0), ("r", 0.01)):
+    with pytest.raises(ValueError, match=r"`w`.*-1/2 < w < 1/2 \(where the scheme converges\)"):
+        state.set_parameter("w", 0.6)
+    for name, good in (("w", 0.4999), ("w", -0.4999), ("t", 1.0), ("t", 0.0), ("t", 6.9),
+                       ("r", 0.01)):
         state.set_parameter(name, good)
         assert state.parameters[name] == good
     with pytest.raises(ValueError, match="name"):
         state.set_parameter("q", 0.1)
     with pytest.raises(TypeError, match="w"):
         state.set_parameter("w", "big")
-    with pytest.raises(ValueError, match=r"`w`.*1/4"):
-        EditorState(SQUARE, w=0.3)
+    with pytest.raises(ValueError, match=r"`w`.*1/2"):
+        EditorState(SQUARE, w=0.6)
     with pytest.raises(TypeError, match="q"):
         EditorState(SQUARE, q=0.3)
     # The view: the same error, and neither the slider nor the curve moved.
     ed = make(SQUARE, levels=2)
     before = ed.curve_points["four-point"].copy()
-    with pytest.raises(ValueError, match=r"`w`.*-1/4 < w < 1/4"):
-        ed.set_parameter("w", 0.3)
+    with pytest.raises(ValueError, match=r"`w`.*-1/2 < w < 1/2"):
+        ed.set_parameter("w", 0.6)
     assert ed.sliders["w"].val == 1 / 16 and ed.parameters["w"] == 1 / 16
     np.testing.assert_array_equal(ed.curve_points["four-point"], before)
-    with pytest.raises(ValueError, match=r"`w`.*1/4"):
-        make(SQUARE, w=0.3)
-    # The sliders stay inside the valid ranges (open ends nudged inside).
+    with pytest.raises(ValueError, match=r"`w`.*1/2"):
+        make(SQUARE, w=0.6)
+    # The sliders stay inside the ranges (open ends nudged inside by 1%).
     for name, (low, high, default) in editor_module.PARAMETERS.items():
-        assert low < default < high or (name == "t" and low <= default <= high)
+        assert low < default < high
         EditorState(SQUARE, **{name: low}), EditorState(SQUARE, **{name: high})
-    assert editor_module.PARAMETERS["t"][:2] == (0.0, 1.0)
-    assert -0.25 < editor_module.PARAMETERS["w"][0] < -0.24 and 0.24 < editor_module.PARAMETERS["w"][1] < 0.25
+    assert editor_module.PARAMETERS["t"][:2] == (0.0, 1.0)  # Rossignac's family
+    assert editor_module.PARAMETERS["w"][:2] == pytest.approx((-0.49, 0.49))
 
 
 def test_state_save_writes_files_that_read_back(tmp_path):

@@ -36,6 +36,7 @@ import numpy as np
 
 from .._misc import is_traced
 from .._scheme.base import AbstractCurveScheme
+from .polytope import polytope_upper_bound
 
 
 # A frozen dataclass, not an `eqx.Module`: the result is host data (Python bools, floats,
@@ -64,6 +65,10 @@ class Smoothness:
     - `factors`: $N$, the power of $(1+z)$ in the symbol.
     - `jsr_lower`, `jsr_upper`: the bounds on the joint spectral radius $\rho$.
     - `reason`: a sentence saying why a scheme does not converge (empty otherwise).
+    - `method`: how the bounds were found: `"closed form"` (no factor $q$ left: the
+      B-splines), `"branch and bound"` (Gripenberg 1996), `"invariant polytope"`
+      (Guglielmi and Protasov 2013: exact, the bracket is the linear programs'
+      tolerance, about $10^{-9}$ wide), or `"sub-mask sums"` (not affine invariant).
     """
 
     converges: bool
@@ -75,12 +80,13 @@ class Smoothness:
     jsr_lower: float
     jsr_upper: float
     reason: str = ""
+    method: str = ""
 
     def __str__(self) -> str:
         if self.holder_lower == -math.inf:
             return f"does not converge: {self.reason}"
-        if self.holder_lower == self.holder_upper:
-            holder = f"Hölder exponent {self.holder_lower:.4f} (exact)"
+        if self.holder_lower == self.holder_upper or self.method == "invariant polytope":
+            holder = f"Hölder exponent {self.holder_lower:.4f} (exact, {self.method})"
         else:
             holder = f"Hölder exponent in [{self.holder_lower:.4f}, {self.holder_upper:.4f}]"
         if not self.converges:
@@ -242,6 +248,72 @@ def _effort(effort: dict, m: int) -> dict:
     return {**effort, "max_products": max(16, scaled)}
 
 
+#: The largest transition matrices for which `smoothness` runs the invariant polytope
+#: algorithm (its linear programs grow with the size; every built-in scheme is smaller).
+MAX_POLYTOPE_SIZE = 16
+
+#: The Hölder bracket the first, fast pass must reach for `smoothness` to stop there;
+#: wider brackets go to the invariant polytope, which is exact when it closes.
+FAST_WIDTH = 2e-3
+
+
+def best_product(matrices: np.ndarray, *, max_products: int = 2048) -> tuple[float, np.ndarray]:
+    r"""The product $\Pi$ of length $k$ with the largest $\rho(\Pi)^{1/k}$ among all
+    products of `matrices` up to the length where their number reaches `max_products`
+    (the shortest one among near-ties): a lower bound on the joint spectral radius and
+    the candidate spectrum-maximizing product for the polytope algorithm."""
+    m = matrices.shape[-1]
+    best, best_product_ = -1.0, matrices[0]
+    level = np.eye(m)[None]
+    length = 0
+    while 2 * len(level) <= max_products:
+        level = np.concatenate([level @ matrices[0], level @ matrices[1]])
+        length += 1
+        radii = _spectral_radius(level) ** (1.0 / length)
+        i = int(np.argmax(radii))
+        if radii[i] > best * (1 + 1e-10):
+            best, best_product_ = float(radii[i]), level[i]
+    return best, best_product_
+
+
+def _holder_bracket(n: int, lo: float, hi: float) -> tuple[float, float]:
+    return n - 1 - math.log2(hi), (n - 1 - math.log2(lo) if lo > 0 else math.inf)
+
+
+def _decided(low_alpha: float, high_alpha: float) -> bool:
+    """Whether a Hölder bracket fixes the class: no integer strictly inside
+    (`continuity` is the largest k < `low_alpha`; not C^{k+1} needs `high_alpha` <= k+1)."""
+    return high_alpha <= math.ceil(low_alpha)
+
+
+def jsr_search(matrices: np.ndarray, n: int) -> tuple[float, float, str]:
+    """Bounds on the joint spectral radius of `matrices` (the factor $q$'s transition
+    matrices, for a symbol with `n` factors $(1+z)$), and the method that gave them.
+
+    A fast branch-and-bound pass first (`jsr_bounds`), kept when its Hölder bracket is
+    at most `FAST_WIDTH` wide and decides the class; otherwise the invariant polytope
+    algorithm (exact when it closes); when that does not close, a deeper
+    branch-and-bound pass, keeping the tightest bounds of all."""
+    m = matrices.shape[-1]
+    if m == 0:
+        return 1.0, 1.0, "closed form"
+    lo, hi = jsr_bounds(matrices, **_effort(_PASSES[0], m))
+    low_alpha, high_alpha = _holder_bracket(n, lo, hi)
+    if lo == hi or (high_alpha - low_alpha <= FAST_WIDTH and _decided(low_alpha, high_alpha)):
+        return lo, hi, "branch and bound"
+    if 1 < m <= MAX_POLYTOPE_SIZE:
+        radius, product = best_product(matrices)
+        if radius >= lo * (1 - 1e-9):  # the same product, up to rounding
+            bound, exact = polytope_upper_bound(matrices, product, radius)
+            if exact:
+                return radius, bound, "invariant polytope"
+            lo, hi = max(lo, radius), min(hi, bound)
+    for effort in _PASSES[1:]:
+        deeper_lo, deeper_hi = jsr_bounds(matrices, **_effort(effort, m))
+        lo, hi = max(lo, deeper_lo), min(hi, deeper_hi)
+    return lo, max(hi, lo), "branch and bound"
+
+
 @ft.lru_cache(maxsize=4096)
 def _smoothness_cached(mask: tuple[float, ...], tol: float = 1e-9) -> Smoothness:
     a = np.asarray(mask)
@@ -256,6 +328,7 @@ def _smoothness_cached(mask: tuple[float, ...], tol: float = 1e-9) -> Smoothness
             factors=0,
             jsr_lower=math.inf,
             jsr_upper=math.inf,
+            method="sub-mask sums",
             reason=(
                 f"the sub-masks sum to {even:.6g} and {odd:.6g}, not 1 and 1, so the "
                 "scheme does not reproduce constants (not affine invariant)"
@@ -270,15 +343,10 @@ def _smoothness_cached(mask: tuple[float, ...], tol: float = 1e-9) -> Smoothness
             "spectral radius search costs O(M^3) per matrix product and would run for "
             "minutes to hours. Analyze a shorter mask (or one with more (1+z) factors)."
         )
-    matrices = transition_matrices(q)
-    for effort in _PASSES:
-        lo, hi = jsr_bounds(matrices, **_effort(effort, len(q) - 1))
-        holder_lower = n - 1 - math.log2(hi)
-        holder_upper = n - 1 - math.log2(lo) if lo > 0 else math.inf
-        k = math.ceil(holder_lower) - 1  # largest integer strictly below holder_lower
-        decided = holder_upper <= k + 1
-        if decided:
-            break
+    lo, hi, method = jsr_search(transition_matrices(q), n)
+    holder_lower, holder_upper = _holder_bracket(n, lo, hi)
+    k = math.ceil(holder_lower) - 1  # largest integer strictly below holder_lower
+    decided = _decided(holder_lower, holder_upper)
     if lo == hi:
         holder_upper = holder_lower
     k = max(k, -1)
@@ -300,6 +368,7 @@ def _smoothness_cached(mask: tuple[float, ...], tol: float = 1e-9) -> Smoothness
         jsr_lower=float(lo),
         jsr_upper=float(hi),
         reason=reason,
+        method=method,
     )
 
 

@@ -136,15 +136,16 @@ class AbstractCurveScheme(eqx.Module):
         return eqx.tree_at(lambda m: tuple(getattr(m, p.name) for p in fitted), self, values)
 
     def _check_fit_start(self, p: Parameter, value) -> None:
-        # A value on an end of the fit interval that is a closed end of the valid range
-        # (SplitTweak(0)) starts just inside; any other value outside it is an error.
+        # A value on an end of the fit interval where the scheme is still C1
+        # (SplitTweak(0), the cubic B-spline) starts just inside; any other value outside
+        # it is an error.
         if isinstance(value, jax.core.Tracer):
             return
         low, high = p.fit_interval
         value = np.asarray(value)
         inside = (low < value) & (value < high)
-        on_edge = ((value == low) & (low == p.low) & (not p.low_open)) | (
-            (value == high) & (high == p.high) & (not p.high_open))
+        c1_low, c1_high = p.c1 if p.c1 is not None else (np.inf, -np.inf)
+        on_edge = ((value == low) | (value == high)) & (c1_low < value) & (value < c1_high)
         if not bool(np.all(inside | on_edge)):
             title = getattr(type(self), "scheme_title", type(self).__name__)
             why = (f", where the {title} scheme is known to be C1" if p.c1 == p.fit_interval

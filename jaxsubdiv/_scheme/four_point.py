@@ -3,19 +3,22 @@ from typing import ClassVar
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._misc import checked_parameter
+from .._misc import checked_parameter, is_traced
 from .base import AbstractCurveScheme
 from .parameter import Parameter
 
 
-#: The tension `w`. Valid on $-1/4 < w < 1/4$ (Dyn, Levin, Gregory 1987); $C^1$ for
-#: $0 < w < 0.1927...$ (Hechler, Mößner, Reif 2009, "C1-continuity of the generalized
-#: four-point scheme", Linear Algebra Appl. 430), and `jaxsubdiv.smoothness` certifies
-#: 0.19, so the fit keeps `w` in $(0, 0.19)$. Dyn, Levin and Gregory's
-#: $(\sqrt5 - 1)/8$ is a sufficient bound.
+#: The tension `w`: any real number. The scheme converges exactly for $-1/2 < w < 1/2$
+#: (`jaxsubdiv.smoothness`, exact by the invariant polytope algorithm; at $w = \pm 1/2$
+#: the transition matrices have the eigenvalue $4w = \pm 2$, so the Hölder exponent is
+#: $\le 0$ there), well beyond Dyn, Levin and Gregory's sufficient $|w| < 1/4$ (1987).
+#: It is $C^1$ exactly for $0 < w < w^* = 0.19273$, the real root of $32w^3 + 4w - 1$
+#: (Hechler, Mößner, Reif 2009, "C1-continuity of the generalized four-point scheme",
+#: Linear Algebra Appl. 430), which `smoothness` confirms; the fit keeps `w` in
+#: $(0, 0.19)$.
 TENSION = Parameter(
-    "w", default=1 / 16, low=-1 / 4, high=1 / 4, low_open=True, high_open=True,
-    c1=(0, 0.19), help="four-point tension",
+    "w", default=1 / 16, low=None, high=None, low_open=True, high_open=True,
+    c1=(0, 0.19), converges=(-1 / 2, 1 / 2), help="four-point tension",
 )
 
 
@@ -33,10 +36,13 @@ class FourPoint(AbstractCurveScheme):
 
     **Arguments:**
 
-    - `w`: the tension, a real number with $-1/4 < w < 1/4$ (default $1/16$). On that interval the
-      difference scheme is contractive in the max norm ($\tfrac12 + 2|w| < 1$), so the
-      scheme converges (Dyn, Levin and Gregory 1987); smoothness ($C^1$ or not) depends
-      on `w`: see `jaxsubdiv.smoothness`.
+    - `w`: the tension, any real number (default $1/16$; traced, differentiable,
+      vmappable). The scheme converges for $-1/2 < w < 1/2$ and is $C^1$ for
+      $0 < w < 0.19273$ (see `TENSION` and `docs/analysis.md`); a concrete `w` outside
+      $(-1/2, 1/2)$ builds the scheme with a [`jaxsubdiv.DivergenceWarning`][]: the rule
+      is applied, but there is no limit curve. Dyn, Levin and Gregory's $|w| < 1/4$,
+      where the difference scheme contracts in one step in the max norm
+      ($\tfrac12 + 2|w| < 1$), is sufficient only.
 
     Boundaries: `"closed"`, `"open"` ($n \to 2n - 5$), `"clamped"` (the classic rule:
     the end points are repeated as ghost points at every level; $n \to 2n - 1$), and
@@ -56,9 +62,11 @@ class FourPoint(AbstractCurveScheme):
         self.w = checked_parameter(
             w,
             TENSION.valid,
-            f"`FourPoint(w)` needs {TENSION.range_text()}.",
+            "`FourPoint(w)` needs a finite real number.",
             name="FourPoint(w)",
         )
+        if not is_traced(self.w):
+            TENSION.warn_if_divergent(self.w, "FourPoint")
 
     def mask(self) -> Float[Array, " 7"]:
         w = self.w

@@ -7,7 +7,20 @@ and `--help` before (or without) importing JAX (`jaxsubdiv._scheme.registry`).
 import dataclasses
 import fractions
 import numbers
+import warnings
 from typing import Any
+
+
+class DivergenceWarning(UserWarning):
+    """A scheme was built with a parameter value where it does not converge.
+
+    Refinement still applies the rule, but the refined polygons approach no continuous
+    curve (their differences do not shrink): the limit, its stencils and a fit do not
+    exist. Raised at construction with concrete values outside a parameter's
+    `converges` interval (traced values are not checked); `jaxsubdiv.smoothness` says
+    why for any value. Turn it into an error with
+    `warnings.simplefilter("error", jaxsubdiv.DivergenceWarning)`.
+    """
 
 
 def number_text(x: float) -> str:
@@ -35,6 +48,7 @@ class Parameter:
     - `name`: the constructor argument and the field that holds the value (e.g. `"w"`).
     - `default`: the value used when none is given (e.g. `1/16`).
     - `low`, `high`, `low_open`, `high_open`: the valid range; an open end is not valid.
+      `None` for no bound: then any finite real number is valid on that side.
     - `c1`: the open interval where the scheme is $C^1$ (the other parameters at their
       defaults), which the fit keeps the parameter inside; None when there is none.
     - `help`: one line for `--help` (e.g. `"four-point tension"`).
@@ -42,19 +56,28 @@ class Parameter:
     - `fit_interval`: the open interval a fit keeps the parameter in; by default `c1`.
       Set it alone for a parameter fitted where the scheme is not $C^1$ (corner cutting's
       `r` and `s`, fitted with the chord model); None (with `c1` None): not fittable.
+    - `converges`: the open interval where the scheme converges (its limit curves are
+      continuous), the other parameters at their defaults, as `jaxsubdiv.smoothness`
+      decides; None when it converges on the whole valid range. A valid value outside it
+      builds the scheme with a [`jaxsubdiv.DivergenceWarning`][].
+    - `slider`: the closed range an interactive slider offers (the editor), when it
+      should be narrower than where the scheme converges (split-and-tweak's $[0, 1]$);
+      None: the `converges` interval, else the valid range.
     - `scheme`: the class name, for messages (filled in by the registry).
     """
 
     name: str
     default: float | int
-    low: float
-    high: float
+    low: float | None
+    high: float | None
     low_open: bool
     high_open: bool
     c1: tuple[float, float] | None
     help: str
     integer: bool = False
     fit_interval: tuple[float, float] | None = None
+    converges: tuple[float, float] | None = None
+    slider: tuple[float, float] | None = None
     scheme: str = ""
 
     def __post_init__(self):
@@ -67,19 +90,65 @@ class Parameter:
         return f"{self.scheme}({self.name})" if self.scheme else self.name
 
     def range_text(self) -> str:
-        """The valid range as an inequality, e.g. `-1/4 < w < 1/4` or `0 <= t <= 1`."""
+        """The valid range as an inequality, e.g. `0 < r < 1`, `1 <= degree <= 55`, or
+        `any finite w` when it is unbounded."""
         below = "<" if self.low_open else "<="
         above = "<" if self.high_open else "<="
+        if self.low is None and self.high is None:
+            return f"any finite {self.name}"
+        if self.low is None:
+            return f"{self.name} {above} {number_text(self.high)}"
+        if self.high is None:
+            return f"{self.name} {'>' if self.low_open else '>='} {number_text(self.low)}"
         return (
             f"{number_text(self.low)} {below} {self.name} {above} {number_text(self.high)}"
         )
 
     def valid(self, value: Any) -> Any:
         """Whether `value` lies in the valid range, elementwise (Python numbers, NumPy or
-        JAX arrays, also traced ones: no conversion happens)."""
-        above_low = (self.low < value) if self.low_open else (self.low <= value)
-        below_high = (value < self.high) if self.high_open else (value <= self.high)
-        return above_low & below_high
+        JAX arrays, also traced ones: no conversion happens). NaN and infinities are
+        never valid."""
+        finite = (value == value) & (abs(value) < float("inf"))
+        if self.low is not None:
+            finite = finite & ((self.low < value) if self.low_open else (self.low <= value))
+        if self.high is not None:
+            finite = finite & ((value < self.high) if self.high_open else (value <= self.high))
+        return finite
+
+    def converges_text(self) -> str:
+        """The `converges` interval as an inequality, e.g. `-1/2 < w < 1/2` ("" without
+        one)."""
+        if self.converges is None:
+            return ""
+        low, high = (number_text(v) for v in self.converges)
+        return f"{low} < {self.name} < {high}"
+
+    def converges_at(self, value: Any) -> Any:
+        """Whether the scheme converges at `value` (the other parameters at their
+        defaults), elementwise, from the declared `converges` interval."""
+        if self.converges is None:
+            return self.valid(value)
+        low, high = self.converges
+        return (low < value) & (value < high)
+
+    def warn_if_divergent(self, value: Any, scheme: str, stacklevel: int = 3) -> None:
+        """A [`jaxsubdiv.DivergenceWarning`][] when the concrete `value` (a number or an
+        array) of `scheme`'s parameter lies outside the `converges` interval; nothing
+        without an interval. The constructors call it for concrete values only (traced
+        ones cannot be tested)."""
+        import numpy as np
+
+        if self.converges is None or np.all(self.converges_at(np.asarray(value))):
+            return
+        interval = self.converges_text()
+        warnings.warn(
+            f"`{scheme}({self.name})` = {np.asarray(value).tolist()} is outside {interval}, "
+            f"where {scheme} converges: refinement still applies the rule, but the refined "
+            "polygons approach no continuous curve (`jaxsubdiv.smoothness` says why). Use "
+            f"{interval} for a limit curve.",
+            DivergenceWarning,
+            stacklevel=stacklevel,
+        )
 
     def check(self, value: Any) -> None:
         """Raise a `ValueError` naming the scheme, the argument and the range when the

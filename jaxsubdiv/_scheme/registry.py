@@ -233,7 +233,9 @@ def markdown_table() -> str:
             arguments = "coefficients, start"
             name = "—"
         parameters = "; ".join(
-            f"{p.name} = {number_text(p.default)}, {p.range_text()}" for p in info.parameters
+            f"{p.name} = {number_text(p.default)}, {p.range_text()}"
+            + (f" (converges for {p.converges_text()})" if p.converges else "")
+            for p in info.parameters
         ) or "—"
         relation = getattr(info.cls, "scheme_relation", None)
         if relation:

@@ -4,16 +4,23 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._misc import checked_parameter
+from .._misc import checked_parameter, is_traced
 from .base import AbstractCurveScheme
 from .parameter import Parameter
 
 
-#: The tweak `t`: 0 is the cubic B-spline ($C^2$), 1 the four-point scheme with
-#: $w = 1/16$ ($C^1$); in between the limit is $C^2$ (`jaxsubdiv.smoothness`), so the
-#: fit keeps `t` in $(0, 1)$. The default 1/2 is Rossignac's Jarek scheme.
+#: The tweak `t`: any real number; 0 is the cubic B-spline ($C^2$), 1 the four-point
+#: scheme with $w = 1/16$ ($C^1$), 1/2 Rossignac's Jarek scheme (the default). The symbol
+#: is $2((1+z)/2)^4 q(z)$ with $q = (-t/2, 1 + t, -t/2)$ for every `t`, so the transition
+#: matrices have the eigenvalue $1 + t$ and the Hölder exponent is at most
+#: $3 - \log_2|1+t|$; `jaxsubdiv.smoothness` (exact by the invariant polytope algorithm)
+#: finds that bound attained at the class boundaries: the scheme converges for
+#: $-9 < t < 7$, is $C^1$ for $-5 < t < 3$ and $C^2$ for $-3 < t < 1$. The fit keeps `t`
+#: in $(0, 1)$ and the editor's slider covers $[0, 1]$, the family between its two
+#: classic ends.
 TWEAK = Parameter(
-    "t", default=1 / 2, low=0, high=1, low_open=False, high_open=False, c1=(0, 1),
+    "t", default=1 / 2, low=None, high=None, low_open=True, high_open=True, c1=(-5, 3),
+    fit_interval=(0, 1), converges=(-9, 7), slider=(0, 1),
     help="split-and-tweak parameter t (0: cubic B-spline, 1/2: Jarek, 1: four-point)",
 )
 
@@ -34,8 +41,10 @@ class SplitTweak(AbstractCurveScheme):
 
     **Arguments:**
 
-    - `t`: the tweak, a real number with $0 \le t \le 1$ (default 1/2, Jarek's scheme;
-      traced, differentiable, vmappable).
+    - `t`: the tweak, any real number (default 1/2, Jarek's scheme; traced,
+      differentiable, vmappable). Rossignac's family is $0 \le t \le 1$; the scheme
+      converges for $-9 < t < 7$ (see `TWEAK`), and a concrete `t` outside that builds
+      it with a [`jaxsubdiv.DivergenceWarning`][].
 
     Boundaries: `"closed"`, `"open"` ($n \to 2n - 5$), `"clamped"` (reflected ghost
     points, ends kept; note `FourPoint`'s classic clamped rule repeats the end points
@@ -53,8 +62,10 @@ class SplitTweak(AbstractCurveScheme):
 
     def __init__(self, t: ArrayLike = TWEAK.default):
         self.t = checked_parameter(
-            t, TWEAK.valid, f"`SplitTweak(t)` needs {TWEAK.range_text()}.", name="SplitTweak(t)"
+            t, TWEAK.valid, "`SplitTweak(t)` needs a finite real number.", name="SplitTweak(t)"
         )
+        if not is_traced(self.t):
+            TWEAK.warn_if_divergent(self.t, "SplitTweak")
 
     def mask(self) -> Float[Array, " 7"]:
         t = self.t
