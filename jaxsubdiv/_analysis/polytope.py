@@ -34,56 +34,95 @@ import numpy as np
 LP_TOLERANCE = 1e-9
 
 # Measured on the four-point scheme: the polytope closes with 8-44 vertices for
-# -0.49 <= w <= 0.49 (one linear program each for about 1-2 ms). A candidate that is not
-# an s.m.p. grows vertices without end, so the search stops at this many.
+# -0.49 <= w <= 0.49 (one linear program per generation, about 2 ms each, most of it
+# scipy's set-up). A candidate that is not an s.m.p. grows vertices without end, so the
+# search stops at this many.
 MAX_VERTICES = 160
 
 
-def _polytope_norm(vertices: np.ndarray, x: np.ndarray) -> tuple[float, np.ndarray | None]:
-    """$\\|x\\|_P$ and the dual solution $y$ ($\\|x\\|_P = x \\cdot y$ with
-    $|V^T y| \\le 1$, a supporting hyperplane); `(inf, None)` when `x` is not in the
-    span of the vertices."""
+
+def _polytope_norms(vertices: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """$\\|x\\|_P$ for each column $x$ of `points`, and the dual solutions $y$ (columns;
+    $|V^T y| \\le 1$, so each is a supporting hyperplane of $P$). The points must lie in
+    the span of the vertices (`_Polytope.outside` sorts out the others first).
+
+    One linear program for all points: their problems are independent blocks, so the
+    block-diagonal program's optimum is each block's (one solver call instead of one
+    per point: the calls' overhead dominates at these sizes). Should the solver fail
+    (a point numerically outside the span), each point gets a program of its own, and
+    a failed one the norm `inf` (outside: the safe side, it only adds a vertex)."""
     from scipy.optimize import linprog
+    from scipy.sparse import block_diag, csr_matrix
 
-    k = vertices.shape[1]
+    m, k = vertices.shape
+    count = points.shape[1]
+    if count > _CHUNK:  # HiGHS slows down more than linearly on large programs
+        parts = [_polytope_norms(vertices, points[:, j:j + _CHUNK])
+                 for j in range(0, count, _CHUNK)]
+        return (np.concatenate([p[0] for p in parts]),
+                np.concatenate([p[1] for p in parts], axis=1))
+    block = csr_matrix(np.hstack([vertices, -vertices]))
     result = linprog(
-        np.ones(2 * k), A_eq=np.hstack([vertices, -vertices]), b_eq=x, bounds=(0, None),
-        method="highs", options=_LP_OPTIONS,
+        np.ones(2 * k * count), A_eq=block_diag([block] * count, format="csr"),
+        b_eq=points.T.reshape(-1), bounds=(0, None), method="highs", options=_LP_OPTIONS,
     )
-    if result.status != 0:
-        return np.inf, None
-    return float(result.fun), np.asarray(result.eqlin.marginals)
+    if result.status == 0:
+        norms = result.x.reshape(count, 2 * k).sum(axis=1)
+        return norms, np.asarray(result.eqlin.marginals).reshape(count, m).T
+    if count == 1:
+        return np.array([np.inf]), np.zeros((m, 1))
+    parts = [_polytope_norms(vertices, points[:, [j]]) for j in range(count)]
+    return (np.concatenate([p[0] for p in parts]),
+            np.concatenate([p[1] for p in parts], axis=1))
 
+
+# Points per linear program: one program for 256 points against 252 vertices took 20 s,
+# sixteen programs of 16 points well under a second.
+_CHUNK = 16
 
 _LP_OPTIONS = dict(primal_feasibility_tolerance=1e-10, dual_feasibility_tolerance=1e-10)
 
 
 class _Polytope:
     """The absolutely convex hull of a growing set of vertices, with the supporting
-    hyperplanes met so far: a child that one of them shows outside needs no linear
+    hyperplanes met so far: a point that one of them shows outside needs no linear
     program (most children of a young polytope are outside)."""
 
     def __init__(self, vertices: np.ndarray):
         self.vertices = vertices
-        self.normals: list[np.ndarray] = []
+        self.normals = np.zeros((vertices.shape[0], 0))
 
-    def norm_at_least(self, x: np.ndarray) -> float:
-        """A lower bound on $\\|x\\|_P$ from the stored hyperplanes (0 without any)."""
-        if not self.normals:
-            return 0.0
-        normals = np.stack(self.normals, axis=1)
+    def norms_at_least(self, points: np.ndarray) -> np.ndarray:
+        """Lower bounds on $\\|x\\|_P$ for the columns of `points`, from the stored
+        hyperplanes (0 without any)."""
+        if not self.normals.shape[1]:
+            return np.zeros(points.shape[1])
         # Rescaled so that every vertex satisfies |v . y| <= 1: valid for the grown P.
-        scale = np.abs(self.vertices.T @ normals).max(axis=0)
-        return float(np.max(np.abs(x @ normals) / np.maximum(scale, 1e-300)))
+        scale = np.abs(self.vertices.T @ self.normals).max(axis=0)
+        useful = scale > 0
+        ratios = np.abs(points.T @ self.normals[:, useful]) / scale[useful]
+        return ratios.max(axis=1) if ratios.shape[1] else np.zeros(points.shape[1])
 
-    def norm(self, x: np.ndarray) -> float:
-        value, normal = _polytope_norm(self.vertices, x)
-        if normal is not None:
-            self.normals.append(normal)
-        return value
+    def norms(self, points: np.ndarray) -> np.ndarray:
+        values, normals = _polytope_norms(self.vertices, points)
+        self.normals = np.concatenate([self.normals, normals], axis=1)
+        return values
 
-    def add(self, x: np.ndarray) -> None:
-        self.vertices = np.concatenate([self.vertices, x[:, None]], axis=1)
+    def add(self, points: np.ndarray) -> None:
+        self.vertices = np.concatenate([self.vertices, points], axis=1)
+
+    def outside(self, points: np.ndarray) -> np.ndarray:
+        """The columns of `points` that lie outside the polytope (beyond its tolerance):
+        those a stored hyperplane separates, and those a linear program measures."""
+        out = self.norms_at_least(points) > 1 + LP_TOLERANCE
+        # Outside the span of the vertices (a young polytope is flat): outside P.
+        basis = _split(self.vertices)[0]
+        residual = points - basis @ (basis.T @ points)
+        out |= np.linalg.norm(residual, axis=0) > 1e-9 * np.linalg.norm(points, axis=0)
+        rest = np.flatnonzero(~out)
+        if rest.size:
+            out[rest] = self.norms(points[:, rest]) > 1 + LP_TOLERANCE
+        return points[:, out]
 
 
 def _leading_vectors(product: np.ndarray) -> np.ndarray:
@@ -119,11 +158,13 @@ def polytope_upper_bound(
     polytope = _Polytope(_leading_vectors(product))
     new = polytope.vertices
     while True:
-        first = polytope.vertices.shape[1]
-        for x in np.concatenate([a @ new for a in normalised], axis=1).T:
-            if polytope.norm_at_least(x) > 1 + LP_TOLERANCE or polytope.norm(x) > 1 + LP_TOLERANCE:
-                polytope.add(x)
-        new = polytope.vertices[:, first:]
+        # Each generation's children are measured together against the polytope before
+        # it (one linear program): a child that a sibling would have covered becomes a
+        # (redundant) vertex, which costs a little work and changes nothing proven.
+        # (Measuring grandchildren too, to save programs, was 3x slower on the
+        # four-point scheme: most of them are outside and the vertices multiply.)
+        new = polytope.outside(np.concatenate([a @ new for a in normalised], axis=1))
+        polytope.add(new)
         if not new.shape[1]:
             # Closed: ||A_i||_P <= 1, but only on the span of the vertices. A common
             # invariant subspace would hide the rest of the space, so the missing
@@ -132,22 +173,28 @@ def polytope_upper_bound(
             missing = _complement(polytope.vertices, m)
             if not missing.shape[1]:
                 return lam * (1 + LP_TOLERANCE), True
-            scale = 1e-3 * np.linalg.norm(polytope.vertices, axis=0).min()
-            for x in (scale * missing).T:
-                polytope.add(x)
-            new = polytope.vertices[:, -missing.shape[1]:]
+            new = 1e-3 * np.linalg.norm(polytope.vertices, axis=0).min() * missing
+            polytope.add(new)
         if polytope.vertices.shape[1] > max_vertices:
             if _complement(polytope.vertices, m).shape[1]:
                 return np.inf, False
             # Every earlier child lies in the (grown) polytope; only the newest
             # vertices' children remain to be measured.
             children = np.concatenate([a @ new for a in normalised], axis=1)
-            worst = max(polytope.norm(x) for x in children.T)
+            worst = float(polytope.norms(children).max())
             return lam * max(1.0, worst) * (1 + LP_TOLERANCE), False
+
+
+def _split(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal bases (columns) of the span of the vertices and of its complement."""
+    u, singular, _ = np.linalg.svd(vertices, full_matrices=True)
+    # NumPy's `matrix_rank` threshold: a thin but full polytope (the four-point scheme
+    # at w = 1e-4 has a direction 1e-8 of the others) spans the space.
+    threshold = max(vertices.shape) * np.finfo(float).eps * singular.max() if singular.size else 0
+    rank = int((singular > threshold).sum())
+    return u[:, :rank], u[:, rank:]
 
 
 def _complement(vertices: np.ndarray, m: int) -> np.ndarray:
     """An orthonormal basis (columns) of the directions the vertices do not span."""
-    u, singular, _ = np.linalg.svd(vertices, full_matrices=True)
-    rank = int((singular > 1e-10 * singular.max()).sum()) if singular.size else 0
-    return u[:, rank:m]
+    return _split(vertices)[1][:, :m]
