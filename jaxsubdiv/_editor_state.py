@@ -19,9 +19,9 @@ Design notes:
 - Scheme knowledge (parameter names, defaults, valid ranges, titles) comes from the
   scheme registry ([`jaxsubdiv.schemes`][]); the editor's own table `CURVES` only says
   which registry entry each curve draws, and its key letter and colour in the view.
-- Smoothness ([`jaxsubdiv.smoothness`][], NumPy on the host, ~5 ms per value, up to
-  ~120 ms near borderline values; cached per value) can be deferred while a parameter
-  moves: the view asks for that when the last computation was slow.
+- Smoothness ([`jaxsubdiv.smoothness`][], NumPy and SciPy on the host, a few ms per
+  value, 10-150 ms when the invariant polytope runs; cached per value) can be deferred
+  while a parameter moves: the view asks for that when the last computation was slow.
 """
 
 import dataclasses

@@ -369,8 +369,9 @@ def _mask_of(scheme):
 # Every built-in scheme over its range: four-point where it converges, split-and-tweak
 # beyond Rossignac's [0, 1], corner cutting across its triangle (off and on s = r + 1/2).
 TIGHT = [
-    *(js.FourPoint(w) for w in (-0.49, -0.44, -0.3, -0.1, 0.0, 0.03, 1 / 16, 0.07, 0.08,
-                                0.1, 0.15, 0.19, 0.2, 0.3, 0.42, 0.49)),
+    *(js.FourPoint(w) for w in (-0.49, -0.44, -0.3, -0.1, 0.0, 0.03, 1 / 16 - 1e-6,
+                                1 / 16, 1 / 16 + 1e-4, 0.07, 0.08, 0.1, 0.15, 0.19, 0.2,
+                                0.3, 0.42, 0.49)),
     *(js.SplitTweak(t) for t in (-8.5, -4, -2, -2 / 3, 0, 0.5, 1, 2.5, 6.5)),
     *(js.CornerCutting(r, s) for r, s in ((0.05, 0.1), (0.1, 0.3), (0.2, 0.65),
                                           (0.2, 0.69), (0.2, 0.7), (1 / 3, 2 / 3),

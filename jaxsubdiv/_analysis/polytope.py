@@ -9,14 +9,19 @@ is $P$, and $\rho(T_0, T_1) \le \lambda$: with the lower bound $\rho \ge \lambda
 joint spectral radius is exactly $\lambda$ (Guglielmi and Protasov 2013, 2016).
 
 The algorithm stops when the candidate is a dominant s.m.p. whose leading eigenvalue is
-simple and real (the case for the four-point scheme at every $w$ tried, see
-`docs/analysis.md`), or when the matrices generate a finite group.
-Otherwise it is stopped at a vertex budget; the polytope is still a norm when its
-vertices span the space, and $\lambda \max_{u, i} \|A_i u\|_P$ over the last vertices
-is then a rigorous (if not tight) upper bound.
+simple and real (the case for the four-point scheme at every $w$ swept, see
+`docs/analysis.md`), or when the matrices generate a finite group. Otherwise it is
+stopped at a budget of vertices (and of generations); the polytope is still a norm when
+its vertices span the space, and $\lambda \max_{u, i} \|A_i u\|_P$ over the last
+vertices is then a rigorous (if not tight) upper bound. An s.m.p. that another product
+nearly matches with a slowly turning complex pair (the four-point scheme just above
+$w = 1/16$) needs more vertices than the budget: there the result stays a bracket.
 
-Whether $x \in P$ is a linear program: $\|x\|_P = \min \|c\|_1$ subject to $V c = x$
-(HiGHS through `scipy.optimize.linprog`, to a tolerance of `LP_TOLERANCE`).
+Whether $x \in P$: in spans of dimension up to `MAX_HULL_DIMENSION`, Qhull's facets of
+$\mathrm{conv}(\pm V)$ give $\|x\|_P = \max_f y_f \cdot x$ (scipy.spatial, incremental
+once $P$ is a body, keeping only extreme vertices in the plane); above it, a linear
+program $\|x\|_P = \min \|c\|_1$ subject to $V c = x$ (HiGHS through
+`scipy.optimize.linprog`), one per generation. Both decide to `LP_TOLERANCE`.
 
 References: N. Guglielmi, V. Yu. Protasov, "Exact computation of joint spectral
 characteristics of linear operators", Found. Comput. Math. 13 (2013) 37-97.
@@ -28,17 +33,16 @@ the regularity of wavelets and subdivisions", SIAM J. Matrix Anal. Appl. 37 (201
 import numpy as np
 
 
-#: The relative accuracy to which a vertex is decided inside the polytope: the linear
-#: programs are solved to a feasibility tolerance well below it, and an exact result is
+#: The relative accuracy to which a point is decided inside the polytope (the hull's
+#: facets and the linear programs are accurate well below it); an exact result is
 #: reported as the interval $[\lambda, \lambda (1 + \text{LP\_TOLERANCE})]$.
 LP_TOLERANCE = 1e-9
 
 # Measured on the four-point scheme: the polytope closes with 8-44 vertices for
-# -0.49 <= w <= 0.49 (one linear program per generation, about 2 ms each, most of it
-# scipy's set-up). A candidate that is not an s.m.p. grows vertices without end, so the
-# search stops at this many.
+# -0.49 <= w <= 0.49, and with about 300 at w = 1/16 + 1e-4 (1 s). A candidate that is
+# not an s.m.p. grows vertices without end, so the search stops at this many (twice as
+# many with Qhull's facets, which are cheaper than linear programs).
 MAX_VERTICES = 160
-
 
 
 def _polytope_norms(vertices: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -84,13 +88,86 @@ _LP_OPTIONS = dict(primal_feasibility_tolerance=1e-10, dual_feasibility_toleranc
 
 
 class _Polytope:
-    """The absolutely convex hull of a growing set of vertices, with the supporting
-    hyperplanes met so far: a point that one of them shows outside needs no linear
-    program (most children of a young polytope are outside)."""
+    """The absolutely convex hull $P$ of a growing set of vertices.
+
+    In spans of dimension up to `MAX_HULL_DIMENSION` it keeps Qhull's facets of
+    $\\mathrm{conv}(\\pm V)$, so that norms are one matrix product, and only the extreme
+    vertices (the others change nothing: closure needs the children of the extreme ones
+    inside). Otherwise norms are linear programs, and the supporting hyperplanes they
+    return show later points outside without a program."""
 
     def __init__(self, vertices: np.ndarray):
-        self.vertices = vertices
+        self.vertices = np.zeros((vertices.shape[0], 0))
         self.normals = np.zeros((vertices.shape[0], 0))
+        self.hull = None
+        self.add(vertices)
+
+    @property
+    def size(self) -> int:
+        """The number of vertices (extreme ones when Qhull keeps the hull)."""
+        if self.facets is not None:
+            return len(self.hull.vertices) // 2  # the hull is symmetric: v and -v
+        return self.vertices.shape[1]
+
+    def add(self, points: np.ndarray) -> np.ndarray:
+        """Add the columns of `points` as vertices; return those that are extreme."""
+        from scipy.spatial import ConvexHull, QhullError
+
+        m, k = points.shape[0], self.vertices.shape[1]
+        if not points.shape[1]:
+            return points
+        self.vertices = np.concatenate([self.vertices, points], axis=1)
+        if self.hull is not None and self.full and m > 2:
+            # A body already: Qhull adds the points to its hull incrementally.
+            before = self.hull.points.shape[0]
+            try:
+                self.hull.add_points(np.concatenate([points, -points], axis=1).T)
+            except (QhullError, ValueError):
+                self.hull, self.facets = None, None
+                return points
+            return self._new_extreme(points, before)
+        self.basis, rest = _split(self.vertices)
+        self.full = not rest.shape[1]
+        if self.full:
+            self.basis = np.eye(m)
+        self.facets = None  # functionals y_f (rows, in basis coordinates): y_f . p <= 1
+        self.hull = None
+        rank = self.basis.shape[1]
+        if not 2 <= rank <= MAX_HULL_DIMENSION:
+            return points
+        old, new = self.basis.T @ self.vertices[:, :k], self.basis.T @ points
+        incremental = self.full and m > 2
+        try:  # laid out as the incremental additions are: each block, then its negative
+            self.hull = ConvexHull(np.concatenate([old, -old, new, -new], axis=1).T,
+                                   incremental=incremental)
+        except (QhullError, ValueError):  # degenerate: linear programs instead
+            self.hull = None
+            return points
+        extreme = self._new_extreme(points, 2 * k)
+        if not incremental and self.facets is not None:
+            # Rebuilt each time: keep only the extreme vertices, for the next build.
+            c = points.shape[1]
+            index = self.hull.vertices
+            owner = np.where(index < 2 * k, index % max(k, 1), k + (index - 2 * k) % max(c, 1))
+            keep = np.zeros(k + c, bool)
+            keep[owner] = True
+            self.vertices = self.vertices[:, keep]
+        return extreme
+
+    def _new_extreme(self, points: np.ndarray, first: int) -> np.ndarray:
+        """The facets of the hull, and which of `points` (hull input from `first`,
+        each point then its negative) are its vertices."""
+        # Facet f: normal . p + offset <= 0 inside, offset < 0 (the origin is inside).
+        normals, offsets = self.hull.equations[:, :-1], self.hull.equations[:, -1]
+        if not np.all(offsets < 0):
+            self.hull, self.facets = None, None
+            return points
+        self.facets = normals / -offsets[:, None]
+        count = points.shape[1]
+        extreme = np.zeros(count, bool)
+        index = self.hull.vertices[self.hull.vertices >= first] - first
+        extreme[np.unique(index % count)] = True
+        return points[:, extreme]
 
     def norms_at_least(self, points: np.ndarray) -> np.ndarray:
         """Lower bounds on $\\|x\\|_P$ for the columns of `points`, from the stored
@@ -104,25 +181,32 @@ class _Polytope:
         return ratios.max(axis=1) if ratios.shape[1] else np.zeros(points.shape[1])
 
     def norms(self, points: np.ndarray) -> np.ndarray:
+        """$\\|x\\|_P$ for the columns of `points`, which lie in the vertices' span."""
+        inner = self.basis.T @ points
+        if self.facets is not None:
+            return np.abs(self.facets @ inner).max(axis=0)
+        if self.basis.shape[1] == 1:
+            return np.abs(inner[0]) / np.abs(self.basis.T @ self.vertices).max()
         values, normals = _polytope_norms(self.vertices, points)
         self.normals = np.concatenate([self.normals, normals], axis=1)
         return values
 
-    def add(self, points: np.ndarray) -> None:
-        self.vertices = np.concatenate([self.vertices, points], axis=1)
-
     def outside(self, points: np.ndarray) -> np.ndarray:
-        """The columns of `points` that lie outside the polytope (beyond its tolerance):
-        those a stored hyperplane separates, and those a linear program measures."""
+        """The columns of `points` that lie outside the polytope (beyond its tolerance)."""
         out = self.norms_at_least(points) > 1 + LP_TOLERANCE
         # Outside the span of the vertices (a young polytope is flat): outside P.
-        basis = _split(self.vertices)[0]
-        residual = points - basis @ (basis.T @ points)
+        residual = points - self.basis @ (self.basis.T @ points)
         out |= np.linalg.norm(residual, axis=0) > 1e-9 * np.linalg.norm(points, axis=0)
         rest = np.flatnonzero(~out)
         if rest.size:
             out[rest] = self.norms(points[:, rest]) > 1 + LP_TOLERANCE
         return points[:, out]
+
+
+#: The largest span dimension in which Qhull's facets replace linear programs (facets
+#: multiply with the dimension; the four-point scheme's polytopes, dimension 4, have a
+#: few hundred).
+MAX_HULL_DIMENSION = 6
 
 
 def _leading_vectors(product: np.ndarray) -> np.ndarray:
@@ -157,32 +241,34 @@ def polytope_upper_bound(
     normalised = matrices / lam
     polytope = _Polytope(_leading_vectors(product))
     new = polytope.vertices
-    while True:
+    budget = max_vertices if m > MAX_HULL_DIMENSION else 2 * max_vertices
+    # Vertices that stop being extreme are dropped, so an orbit that spirals outwards
+    # can run for ever without reaching the budget: the generations are capped too.
+    for _ in range(budget):
         # Each generation's children are measured together against the polytope before
-        # it (one linear program): a child that a sibling would have covered becomes a
-        # (redundant) vertex, which costs a little work and changes nothing proven.
+        # it (one linear program, or the hull's facets): a child that a sibling would
+        # have covered becomes a (redundant) vertex, which changes nothing proven.
         # (Measuring grandchildren too, to save programs, was 3x slower on the
         # four-point scheme: most of them are outside and the vertices multiply.)
-        new = polytope.outside(np.concatenate([a @ new for a in normalised], axis=1))
-        polytope.add(new)
+        new = polytope.add(polytope.outside(np.concatenate([a @ new for a in normalised], axis=1)))
         if not new.shape[1]:
             # Closed: ||A_i||_P <= 1, but only on the span of the vertices. A common
             # invariant subspace would hide the rest of the space, so the missing
             # directions join (small, so that they do not enlarge P needlessly) until
             # the polytope is a body.
-            missing = _complement(polytope.vertices, m)
-            if not missing.shape[1]:
+            if polytope.full:
                 return lam * (1 + LP_TOLERANCE), True
-            new = 1e-3 * np.linalg.norm(polytope.vertices, axis=0).min() * missing
-            polytope.add(new)
-        if polytope.vertices.shape[1] > max_vertices:
-            if _complement(polytope.vertices, m).shape[1]:
-                return np.inf, False
-            # Every earlier child lies in the (grown) polytope; only the newest
-            # vertices' children remain to be measured.
-            children = np.concatenate([a @ new for a in normalised], axis=1)
-            worst = float(polytope.norms(children).max())
-            return lam * max(1.0, worst) * (1 + LP_TOLERANCE), False
+            missing = _complement(polytope.vertices, m)
+            new = polytope.add(1e-3 * np.linalg.norm(polytope.vertices, axis=0).min() * missing)
+        if polytope.size > budget:
+            break
+    if not polytope.full:
+        return np.inf, False
+    # Every earlier child lies in the (grown) polytope; only the newest vertices'
+    # children remain to be measured.
+    children = np.concatenate([a @ new for a in normalised], axis=1)
+    worst = float(polytope.norms(children).max()) if children.shape[1] else 1.0
+    return lam * max(1.0, worst) * (1 + LP_TOLERANCE), False
 
 
 def _split(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

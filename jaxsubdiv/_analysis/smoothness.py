@@ -18,14 +18,18 @@ Method (Dyn and Levin 2002, sections 4-5; Rioul 1992; Daubechies and Lagarias 19
    upper bound $\max(\text{lower} + \delta, \max_P \|P\|^{1/k})$ over the products of
    length $k$ whose every prefix survived pruning, in the spectral norm of an adapted
    basis. Both are rigorous (up to floating-point rounding) and tighten as the search
-   deepens.
+   deepens. When a fast pass leaves the bracket wider than `FAST_WIDTH` or the class
+   undecided, the invariant polytope algorithm (`polytope.py`; Guglielmi and Protasov
+   2013) proves the best short product spectrum-maximizing, which makes $\rho$ exact.
 
 References: N. Dyn, D. Levin, "Subdivision schemes in geometric modelling", Acta Numerica
 11 (2002) 73-144. O. Rioul, "Simple regularity criteria for subdivision schemes", SIAM J.
 Math. Anal. 23 (1992) 1544-1576. I. Daubechies, J. C. Lagarias, "Two-scale difference
 equations II. Local regularity, infinite products of matrices and fractals", SIAM J. Math.
 Anal. 23 (1992) 1031-1079. G. Gripenberg, "Computing the joint spectral radius", Linear
-Algebra Appl. 234 (1996) 43-60.
+Algebra Appl. 234 (1996) 43-60. N. Guglielmi, V. Yu. Protasov, "Exact computation of
+joint spectral characteristics of linear operators", Found. Comput. Math. 13 (2013)
+37-97.
 """
 
 import dataclasses
@@ -252,12 +256,14 @@ def _effort(effort: dict, m: int) -> dict:
 #: algorithm (its linear programs grow with the size; every built-in scheme is smaller).
 MAX_POLYTOPE_SIZE = 16
 
-#: The Hölder bracket the first, fast pass must reach for `smoothness` to stop there;
-#: wider brackets go to the invariant polytope, which is exact when it closes.
-FAST_WIDTH = 2e-3
+#: The Hölder bracket the first, fast pass must reach for `smoothness` to stop there
+#: (in effect: exact, as for the B-splines and the corner-cutting line); anything wider
+#: goes to the invariant polytope, which is exact when it closes and costs 1-150 ms
+#: (one to a few hundred hulls or linear programs).
+FAST_WIDTH = 1e-6
 
 
-def best_product(matrices: np.ndarray, *, max_products: int = 2048) -> tuple[float, np.ndarray]:
+def best_product(matrices: np.ndarray, *, max_products: int = 512) -> tuple[float, np.ndarray]:
     r"""The product $\Pi$ of length $k$ with the largest $\rho(\Pi)^{1/k}$ among all
     products of `matrices` up to the length where their number reaches `max_products`
     (the shortest one among near-ties): a lower bound on the joint spectral radius and
@@ -380,11 +386,15 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
     $\rho$ of the two matrices of the remaining factor, so the Hölder exponent
     $\alpha = N - 1 - \log_2\rho$ comes with rigorous lower and upper bounds, and the
     scheme is $C^k$ exactly for $k < \alpha$ (see the module notes for the theory and the
-    references: Dyn and Levin 2002, Rioul 1992, Daubechies and Lagarias 1992).
+    references: Dyn and Levin 2002, Rioul 1992, Daubechies and Lagarias 1992). A fast
+    branch-and-bound pass answers when it is already exact; otherwise the invariant polytope algorithm (Guglielmi and Protasov 2013)
+    usually finds $\rho$ exactly (`method` says which; `docs/analysis.md`). Every
+    built-in scheme at every parameter value we swept is bracketed within 0.01.
 
     When to use it: to choose or tune a parameter (is `FourPoint(w)` still $C^1$ at this
-    `w`?), before asking for tangents, or to sweep a parameter: one call takes about a
-    millisecond, and results are cached per mask.
+    `w`?), before asking for tangents, or to sweep a parameter: a fast pass takes a few
+    milliseconds, the polytope 10-150 ms (`benchmarks/bench_analysis.py`), and results
+    are cached per mask.
 
     The exponent is that of the basis function $\varphi$ (the limit of a single control
     point), which bounds the smoothness of every limit curve. The formula is exact when
@@ -402,7 +412,10 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
     are a `ValueError` (the search costs $O(M^3)$ per matrix product: a
     128-coefficient random mask ran for over 3 minutes). Above degree 8 the search keeps
     fewer products per length (its work is capped at what degree 8 costs), so the bounds
-    are looser and `decided` is more often False; a worst case takes seconds.
+    are looser and `decided` is more often False; above degree 16 the polytope is not
+    tried. A worst case takes seconds: the polytope gives up after 160 vertices when
+    the spectrum-maximizing product has a complex leading eigenvalue (random masks of
+    degree 16: up to 1.5 s, brackets up to 0.3 wide).
 
     **Returns:** a [`jaxsubdiv.Smoothness`][] with `converges`, `holder_lower`,
     `holder_upper`, `continuity` (the largest $k$ with a $C^k$ limit, -1 if it does not
@@ -426,7 +439,7 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
         raise TypeError(
             "`smoothness` runs on the host with NumPy and needs concrete parameter values, "
             "not traced ones: call it outside `jit`/`vmap`/`grad` (for a sweep, loop over "
-            "the values in Python; each call takes about a millisecond)."
+            "the values in Python; each call takes milliseconds)."
         )
     if mask.ndim != 1:
         raise ValueError(
