@@ -9,6 +9,8 @@ Cases (each value analysed once, the cache cleared before each repeat):
 - `four_point_w`: 200 values of the four-point tension w on [-0.55, 0.55] (beyond where
   it converges, -1/2 < w < 1/2), built as `MaskScheme`s so that revisions whose
   `FourPoint` refused |w| >= 1/4 analyse the same masks;
+- `four_point_near_1_16`: 40 values of w at 1/16 +- 10^-9 .. 10^-2 (log-spaced), where
+  the symbol almost gains two factors (1 + z) and the brackets are hardest;
 - `split_tweak_t`: 100 values of t on [-10, 8] (converges on -9 < t < 7), as masks;
 - `corner_cutting_rs`: a 40 x 40 grid of the triangle 0 < r < s < 1 (780 pairs).
 
@@ -50,6 +52,11 @@ def _schemes(case: str, smoke: bool):
     if case == "four_point_w":
         return [(f"w={w:.6g}", js.MaskScheme(np.array([-w, 0, 0.5 + w, 1, 0.5 + w, 0, -w]), -3))
                 for w in np.linspace(-0.55, 0.55, 12 if smoke else 200)]
+    if case == "four_point_near_1_16":
+        offsets = np.logspace(-9, -2, 4 if smoke else 20)
+        ws = np.sort(np.concatenate([1 / 16 - offsets, 1 / 16 + offsets]))
+        return [(f"w=1/16{w - 1 / 16:+.1e}",
+                 js.MaskScheme(np.array([-w, 0, 0.5 + w, 1, 0.5 + w, 0, -w]), -3)) for w in ws]
     if case == "split_tweak_t":
         bspline = np.array([0, 1, 4, 6, 4, 1, 0]) / 8
         four = np.array([-1, 0, 9, 16, 9, 0, -1]) / 16
@@ -130,7 +137,7 @@ def main():
         print(json.dumps(_worker(args.worker, args.smoke)))
         return
     repeats = args.repeats or (1 if args.smoke else 3)
-    cases = ["four_point_w", "split_tweak_t", "corner_cutting_rs"]
+    cases = ["four_point_w", "four_point_near_1_16", "split_tweak_t", "corner_cutting_rs"]
     with tempfile.TemporaryDirectory() as tmp:
         versions = {"after": (ROOT, _commit("HEAD") + "+worktree")}
         if args.before:

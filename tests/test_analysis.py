@@ -375,7 +375,9 @@ TIGHT = [
     *(js.SplitTweak(t) for t in (-8.5, -4, -2, -2 / 3, 0, 0.5, 1, 2.5, 6.5)),
     *(js.CornerCutting(r, s) for r, s in ((0.05, 0.1), (0.1, 0.3), (0.2, 0.65),
                                           (0.2, 0.69), (0.2, 0.7), (1 / 3, 2 / 3),
-                                          (0.45, 0.55), (0.01, 0.99), (0.6, 0.95))),
+                                          (0.45, 0.55), (0.01, 0.99), (0.6, 0.95),
+                                          # spectrum-maximizing product of length 12:
+                                          (1 / 60, 29 / 60), (31 / 60, 59 / 60))),
     js.Chaikin(), js.CubicBSpline(), js.Daubechies(), js.Jarek(),
     *(js.LaneRiesenfeld(d) for d in (1, 2, 5, 9)),
 ]  # fmt: skip

@@ -181,11 +181,13 @@ def _adapted_basis(matrices: np.ndarray, best: np.ndarray) -> np.ndarray:
 
 def jsr_bounds(
     matrices: np.ndarray, *, delta: float, max_length: int, max_products: int
-) -> tuple[float, float]:
-    """Rigorous lower and upper bounds on the joint spectral radius (Gripenberg 1996)."""
+) -> tuple[float, float, np.ndarray]:
+    """Rigorous lower and upper bounds on the joint spectral radius (Gripenberg 1996),
+    and the product that gave the lower bound, $\\rho(P)^{1/k}$ (in the given basis):
+    long products that survive the pruning are candidates for the polytope too."""
     m = matrices.shape[-1]
     if m == 0:
-        return 1.0, 1.0
+        return 1.0, 1.0, np.eye(0)
     # Seed the lower bound with every product of length <= 4.
     lower, best = 0.0, matrices[0]
     level = matrices
@@ -205,7 +207,10 @@ def jsr_bounds(
     for k in range(1, max_length + 1):
         norms = _norm(products) ** (1.0 / k)
         radii = _spectral_radius(products) ** (1.0 / k)
-        lower = max(lower, float(radii.max()))
+        i = int(np.argmax(radii))
+        if radii[i] > lower * (1 + 1e-10):  # a longer product only when it is better
+            lower = float(radii[i])
+            best = products[i] if mats is matrices else basis @ products[i] @ np.linalg.inv(basis)
         upper = min(upper, max(lower + delta, float(norms.max())))
         keep = norms > lower + delta
         if not keep.any() or upper <= lower + delta:
@@ -215,7 +220,7 @@ def jsr_bounds(
         if 2 * len(survivors) > max_products:
             break
         products = np.concatenate([survivors @ mats[0], survivors @ mats[1]])
-    return lower, max(upper, lower)
+    return lower, max(upper, lower), best
 
 
 # Effort levels: a fast first pass, then deeper passes only when the class is undecided.
@@ -303,19 +308,23 @@ def jsr_search(matrices: np.ndarray, n: int) -> tuple[float, float, str]:
     m = matrices.shape[-1]
     if m == 0:
         return 1.0, 1.0, "closed form"
-    lo, hi = jsr_bounds(matrices, **_effort(_PASSES[0], m))
+    lo, hi, searched = jsr_bounds(matrices, **_effort(_PASSES[0], m))
     low_alpha, high_alpha = _holder_bracket(n, lo, hi)
     if lo == hi or (high_alpha - low_alpha <= FAST_WIDTH and _decided(low_alpha, high_alpha)):
         return lo, hi, "branch and bound"
     if 1 < m <= MAX_POLYTOPE_SIZE:
+        # The candidate: the best of all short products, unless the branch and bound
+        # met a longer, better one (corner cutting near r = 0: length 12).
         radius, product = best_product(matrices)
+        if lo > radius * (1 + 1e-9):
+            radius, product = lo, searched
         if radius >= lo * (1 - 1e-9):  # the same product, up to rounding
             bound, exact = polytope_upper_bound(matrices, product, radius)
             if exact:
                 return radius, bound, "invariant polytope"
             lo, hi = max(lo, radius), min(hi, bound)
     for effort in _PASSES[1:]:
-        deeper_lo, deeper_hi = jsr_bounds(matrices, **_effort(effort, m))
+        deeper_lo, deeper_hi, _ = jsr_bounds(matrices, **_effort(effort, m))
         lo, hi = max(lo, deeper_lo), min(hi, deeper_hi)
     return lo, max(hi, lo), "branch and bound"
 
