@@ -44,7 +44,7 @@ def four_point_figure():
           f"methods {dict(methods)}")
     converging = ws[[r.converges for r in results]]
     print(f"  converges for w in [{converging.min():.4f}, {converging.max():.4f}] of the grid")
-    fig, ax = plt.subplots(figsize=(7, 4), dpi=100)
+    fig, ax = plt.subplots(figsize=(7, 5), dpi=100)
     ax.fill_between(ws, lo, hi, color="tab:blue", alpha=0.3, label="rigorous bounds")
     ax.plot(ws, lo, color="tab:blue", lw=1, label="Hölder exponent (exact where the polytope closes)")
     ax.axhline(1, color="k", lw=0.6)
@@ -60,10 +60,34 @@ def four_point_figure():
     ax.set_xlabel("tension w")
     ax.set_ylabel("Hölder exponent of the basis function")
     ax.set_title("Four-point scheme: smoothness against w")
-    ax.legend(fontsize=7, loc="lower center")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=2)
     fig.tight_layout()
     fig.savefig(IMAGES / "analysis_four_point_holder.png")
     plt.close(fig)
+
+
+def near_one_sixteenth():
+    """The brackets at w = 1/16 +- 10^-k, where the symbol almost gains two factors."""
+    from jaxsubdiv._analysis.smoothness import factor_symbol, transition_matrices
+
+    print("four-point near w = 1/16:")
+    for epsilon in (1e-3, 1e-4):
+        w = 1 / 16 + epsilon
+        _, q = factor_symbol(np.array([0, -w, 0, 0.5 + w, 1, 0.5 + w, 0, -w]))
+        t0, t1 = transition_matrices(q)
+        smp = np.abs(np.linalg.eigvals(t1 @ t0)).max() ** 0.5
+        pair = max(np.linalg.eigvals(t0), key=lambda z: (abs(z), z.imag))
+        print(f"  epsilon {epsilon:g}: (rho(T1 T0)^(1/2) - 1/2)/epsilon = "
+              f"{(smp - 0.5) / epsilon:.2f}; T0's pair: (|z| - 1/2)/epsilon = "
+              f"{(abs(pair) - 0.5) / epsilon:.2f}, turning {abs(np.angle(pair)):.4f} rad "
+              f"= {abs(np.angle(pair)) / epsilon**0.5:.2f} sqrt(epsilon)")
+    for k in range(3, 10):
+        for sign in (1, -1):
+            w = 1 / 16 + sign * 10.0**-k
+            start = time.perf_counter()
+            r = js.smoothness(js.FourPoint(w))
+            print(f"  1/16 {'+-'[sign < 0]} 1e-{k}: [{r.holder_lower:.4f}, {r.holder_upper:.4f}] "
+                  f"({r.method}, {time.perf_counter() - start:.2f} s)")
 
 
 def split_tweak_ranges():
@@ -126,6 +150,7 @@ def table():
 if __name__ == "__main__":
     IMAGES.mkdir(exist_ok=True)
     four_point_figure()
+    near_one_sixteenth()
     split_tweak_ranges()
     corner_cutting_figure()
     table()
