@@ -18,8 +18,8 @@ nearly matches with a slowly turning complex pair (the four-point scheme just ab
 $w = 1/16$) needs more vertices than the budget: there the result stays a bracket.
 
 Whether $x \in P$: in spans of dimension up to `MAX_HULL_DIMENSION`, Qhull's facets of
-$\mathrm{conv}(\pm V)$ give $\|x\|_P = \max_f y_f \cdot x$ (scipy.spatial, incremental
-once $P$ is a body, keeping only extreme vertices in the plane); above it, a linear
+$\mathrm{conv}(\pm V)$ give $\|x\|_P = \max_f y_f \cdot x$ (scipy.spatial, rebuilt each
+generation from the extreme vertices); above it, a linear
 program $\|x\|_P = \min \|c\|_1$ subject to $V c = x$ (HiGHS through
 `scipy.optimize.linprog`), one per generation. Both decide to `LP_TOLERANCE`.
 
@@ -91,22 +91,19 @@ class _Polytope:
     """The absolutely convex hull $P$ of a growing set of vertices.
 
     In spans of dimension up to `MAX_HULL_DIMENSION` it keeps Qhull's facets of
-    $\\mathrm{conv}(\\pm V)$, so that norms are one matrix product, and only the extreme
-    vertices (the others change nothing: closure needs the children of the extreme ones
-    inside). Otherwise norms are linear programs, and the supporting hyperplanes they
-    return show later points outside without a program."""
+    $\\mathrm{conv}(\\pm V)$, rebuilt each generation, so that norms are one matrix
+    product, and only the extreme vertices (the others change nothing: closure needs
+    the children of the extreme ones inside). Otherwise norms are linear programs, and
+    the supporting hyperplanes they return show later points outside without one."""
 
     def __init__(self, vertices: np.ndarray):
         self.vertices = np.zeros((vertices.shape[0], 0))
         self.normals = np.zeros((vertices.shape[0], 0))
-        self.hull = None
         self.add(vertices)
 
     @property
     def size(self) -> int:
-        """The number of vertices (extreme ones when Qhull keeps the hull)."""
-        if self.facets is not None:
-            return len(self.hull.vertices) // 2  # the hull is symmetric: v and -v
+        """The number of vertices (the extreme ones when Qhull keeps the hull)."""
         return self.vertices.shape[1]
 
     def add(self, points: np.ndarray) -> np.ndarray:
@@ -117,57 +114,35 @@ class _Polytope:
         if not points.shape[1]:
             return points
         self.vertices = np.concatenate([self.vertices, points], axis=1)
-        if self.hull is not None and self.full and m > 2:
-            # A body already: Qhull adds the points to its hull incrementally.
-            before = self.hull.points.shape[0]
-            try:
-                self.hull.add_points(np.concatenate([points, -points], axis=1).T)
-            except (QhullError, ValueError):
-                self.hull, self.facets = None, None
-                return points
-            return self._new_extreme(points, before)
         self.basis, rest = _split(self.vertices)
         self.full = not rest.shape[1]
         if self.full:
             self.basis = np.eye(m)
         self.facets = None  # functionals y_f (rows, in basis coordinates): y_f . p <= 1
-        self.hull = None
         rank = self.basis.shape[1]
         if not 2 <= rank <= MAX_HULL_DIMENSION:
             return points
         old, new = self.basis.T @ self.vertices[:, :k], self.basis.T @ points
-        incremental = self.full and m > 2
-        try:  # laid out as the incremental additions are: each block, then its negative
-            self.hull = ConvexHull(np.concatenate([old, -old, new, -new], axis=1).T,
-                                   incremental=incremental)
+        # Rebuilt each generation from the extreme vertices: Qhull's incremental mode
+        # (`add_points`) aborted the process on near-degenerate input (a review found
+        # inputs that kill the interpreter), and was no faster here.
+        try:
+            hull = ConvexHull(np.concatenate([old, -old, new, -new], axis=1).T)
         except (QhullError, ValueError):  # degenerate: linear programs instead
-            self.hull = None
             return points
-        extreme = self._new_extreme(points, 2 * k)
-        if not incremental and self.facets is not None:
-            # Rebuilt each time: keep only the extreme vertices, for the next build.
-            c = points.shape[1]
-            index = self.hull.vertices
-            owner = np.where(index < 2 * k, index % max(k, 1), k + (index - 2 * k) % max(c, 1))
-            keep = np.zeros(k + c, bool)
-            keep[owner] = True
-            self.vertices = self.vertices[:, keep]
-        return extreme
-
-    def _new_extreme(self, points: np.ndarray, first: int) -> np.ndarray:
-        """The facets of the hull, and which of `points` (hull input from `first`,
-        each point then its negative) are its vertices."""
         # Facet f: normal . p + offset <= 0 inside, offset < 0 (the origin is inside).
-        normals, offsets = self.hull.equations[:, :-1], self.hull.equations[:, -1]
+        normals, offsets = hull.equations[:, :-1], hull.equations[:, -1]
         if not np.all(offsets < 0):
-            self.hull, self.facets = None, None
             return points
         self.facets = normals / -offsets[:, None]
-        count = points.shape[1]
-        extreme = np.zeros(count, bool)
-        index = self.hull.vertices[self.hull.vertices >= first] - first
-        extreme[np.unique(index % count)] = True
-        return points[:, extreme]
+        # Input columns: the old vertices, their negatives, the new, their negatives.
+        c = points.shape[1]
+        index = hull.vertices
+        owner = np.where(index < 2 * k, index % max(k, 1), k + (index - 2 * k) % c)
+        keep = np.zeros(k + c, bool)
+        keep[owner] = True
+        self.vertices = self.vertices[:, keep]
+        return points[:, keep[k:]]
 
     def norms_at_least(self, points: np.ndarray) -> np.ndarray:
         """Lower bounds on $\\|x\\|_P$ for the columns of `points`, from the stored
