@@ -17,11 +17,12 @@ vertices is then a rigorous (if not tight) upper bound. An s.m.p. that another p
 nearly matches with a slowly turning complex pair (the four-point scheme just above
 $w = 1/16$) needs more vertices than the budget: there the result stays a bracket.
 
-Whether $x \in P$: in spans of dimension up to `MAX_HULL_DIMENSION`, Qhull's facets of
-$\mathrm{conv}(\pm V)$ give $\|x\|_P = \max_f y_f \cdot x$ (scipy.spatial, rebuilt each
-generation from the extreme vertices); above it, a linear
-program $\|x\|_P = \min \|c\|_1$ subject to $V c = x$ (HiGHS through
-`scipy.optimize.linprog`), one per generation. Both decide to `LP_TOLERANCE`.
+Whether $x \in P$: Qhull's facets of $\mathrm{conv}(\pm V)$ (scipy.spatial, rebuilt each
+generation from the extreme vertices) give $\|x\|_P = \max_f y_f \cdot x$, to
+`LP_TOLERANCE`. Only up to `MAX_HULL_DIMENSION` dimensions and `MAX_FACETS` facets:
+beyond, the polytope gives up and branch and bound answers. (Linear programs instead of
+facets were tried: HiGHS's absolute tolerances made thin polytopes claim closure
+wrongly, and Qhull's incremental mode aborted the interpreter on some inputs.)
 
 References: N. Guglielmi, V. Yu. Protasov, "Exact computation of joint spectral
 characteristics of linear operators", Found. Comput. Math. 13 (2013) 37-97.
@@ -33,72 +34,26 @@ the regularity of wavelets and subdivisions", SIAM J. Matrix Anal. Appl. 37 (201
 import numpy as np
 
 
-#: The relative accuracy to which a point is decided inside the polytope (the hull's
-#: facets and the linear programs are accurate well below it); an exact result is
-#: reported as the interval $[\lambda, \lambda (1 + \text{LP\_TOLERANCE})]$.
+#: The relative tolerance to which a point is decided inside the polytope by the hull's
+#: facets; an exact result is reported as $[\lambda, \lambda (1 + \text{LP\_TOLERANCE})]$.
 LP_TOLERANCE = 1e-9
 
 # Measured on the four-point scheme: the polytope closes with 8-44 vertices for
 # -0.49 <= w <= 0.49, and with about 300 at w = 1/16 + 1e-4 (1 s). A candidate that is
-# not an s.m.p. grows vertices without end, so the search stops at this many (twice as
-# many with Qhull's facets, which are cheaper than linear programs).
+# not an s.m.p. grows vertices without end, so the search stops at twice this many.
 MAX_VERTICES = 160
-
-
-def _polytope_norms(vertices: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """$\\|x\\|_P$ for each column $x$ of `points`, and the dual solutions $y$ (columns;
-    $|V^T y| \\le 1$, so each is a supporting hyperplane of $P$). The points must lie in
-    the span of the vertices (`_Polytope.outside` sorts out the others first).
-
-    One linear program for all points: their problems are independent blocks, so the
-    block-diagonal program's optimum is each block's (one solver call instead of one
-    per point: the calls' overhead dominates at these sizes). Should the solver fail
-    (a point numerically outside the span), each point gets a program of its own, and
-    a failed one the norm `inf` (outside: the safe side, it only adds a vertex)."""
-    from scipy.optimize import linprog
-    from scipy.sparse import block_diag, csr_matrix
-
-    m, k = vertices.shape
-    count = points.shape[1]
-    if count > _CHUNK:  # HiGHS slows down more than linearly on large programs
-        parts = [_polytope_norms(vertices, points[:, j:j + _CHUNK])
-                 for j in range(0, count, _CHUNK)]
-        return (np.concatenate([p[0] for p in parts]),
-                np.concatenate([p[1] for p in parts], axis=1))
-    block = csr_matrix(np.hstack([vertices, -vertices]))
-    result = linprog(
-        np.ones(2 * k * count), A_eq=block_diag([block] * count, format="csr"),
-        b_eq=points.T.reshape(-1), bounds=(0, None), method="highs", options=_LP_OPTIONS,
-    )
-    if result.status == 0:
-        norms = result.x.reshape(count, 2 * k).sum(axis=1)
-        return norms, np.asarray(result.eqlin.marginals).reshape(count, m).T
-    if count == 1:
-        return np.array([np.inf]), np.zeros((m, 1))
-    parts = [_polytope_norms(vertices, points[:, [j]]) for j in range(count)]
-    return (np.concatenate([p[0] for p in parts]),
-            np.concatenate([p[1] for p in parts], axis=1))
-
-
-# Points per linear program: one program for 256 points against 252 vertices took 20 s,
-# sixteen programs of 16 points well under a second.
-_CHUNK = 16
-
-_LP_OPTIONS = dict(primal_feasibility_tolerance=1e-10, dual_feasibility_tolerance=1e-10)
 
 
 class _Polytope:
     """The absolutely convex hull $P$ of a growing set of vertices.
 
-    In spans of dimension up to `MAX_HULL_DIMENSION` it keeps Qhull's facets of
-    $\\mathrm{conv}(\\pm V)$, rebuilt each generation, so that norms are one matrix
-    product, and only the extreme vertices (the others change nothing: closure needs
-    the children of the extreme ones inside). Otherwise norms are linear programs, and
-    the supporting hyperplanes they return show later points outside without one."""
+    It keeps Qhull's facets of $\\mathrm{conv}(\\pm V)$ in the span of the vertices,
+    rebuilt each generation, so that norms are one matrix product, and only the extreme
+    vertices (the others change nothing: closure needs the children of the extreme ones
+    inside)."""
 
     def __init__(self, vertices: np.ndarray):
         self.vertices = np.zeros((vertices.shape[0], 0))
-        self.normals = np.zeros((vertices.shape[0], 0))
         self.add(vertices)
 
     @property
@@ -134,6 +89,8 @@ class _Polytope:
         normals, offsets = hull.equations[:, :-1], hull.equations[:, -1]
         if not np.all(offsets < 0):
             return points
+        if len(offsets) > MAX_FACETS:
+            raise _GiveUp
         self.facets = normals / -offsets[:, None]
         # Input columns: the old vertices, their negatives, the new, their negatives.
         c = points.shape[1]
@@ -144,44 +101,44 @@ class _Polytope:
         self.vertices = self.vertices[:, keep]
         return points[:, keep[k:]]
 
-    def norms_at_least(self, points: np.ndarray) -> np.ndarray:
-        """Lower bounds on $\\|x\\|_P$ for the columns of `points`, from the stored
-        hyperplanes (0 without any)."""
-        if not self.normals.shape[1]:
-            return np.zeros(points.shape[1])
-        # Rescaled so that every vertex satisfies |v . y| <= 1: valid for the grown P.
-        scale = np.abs(self.vertices.T @ self.normals).max(axis=0)
-        useful = scale > 0
-        ratios = np.abs(points.T @ self.normals[:, useful]) / scale[useful]
-        return ratios.max(axis=1) if ratios.shape[1] else np.zeros(points.shape[1])
-
-    def norms(self, points: np.ndarray) -> np.ndarray:
-        """$\\|x\\|_P$ for the columns of `points`, which lie in the vertices' span."""
+    def norms(self, points: np.ndarray) -> np.ndarray | None:
+        """$\\|x\\|_P$ for the columns of `points`, which lie in the vertices' span
+        (None when the hull's facets are not available: see `polytope_upper_bound`)."""
         inner = self.basis.T @ points
         if self.facets is not None:
             return np.abs(self.facets @ inner).max(axis=0)
         if self.basis.shape[1] == 1:
             return np.abs(inner[0]) / np.abs(self.basis.T @ self.vertices).max()
-        values, normals = _polytope_norms(self.vertices, points)
-        self.normals = np.concatenate([self.normals, normals], axis=1)
-        return values
+        return None
 
     def outside(self, points: np.ndarray) -> np.ndarray:
         """The columns of `points` that lie outside the polytope (beyond its tolerance)."""
-        out = self.norms_at_least(points) > 1 + LP_TOLERANCE
         # Outside the span of the vertices (a young polytope is flat): outside P.
         residual = points - self.basis @ (self.basis.T @ points)
-        out |= np.linalg.norm(residual, axis=0) > 1e-9 * np.linalg.norm(points, axis=0)
+        out = np.linalg.norm(residual, axis=0) > 1e-9 * np.linalg.norm(points, axis=0)
         rest = np.flatnonzero(~out)
         if rest.size:
-            out[rest] = self.norms(points[:, rest]) > 1 + LP_TOLERANCE
+            norms = self.norms(points[:, rest])
+            if norms is None:
+                raise _GiveUp
+            out[rest] = norms > 1 + LP_TOLERANCE
         return points[:, out]
 
 
-#: The largest span dimension in which Qhull's facets replace linear programs (facets
-#: multiply with the dimension; the four-point scheme's polytopes, dimension 4, have a
-#: few hundred).
-MAX_HULL_DIMENSION = 6
+#: The largest dimension the polytope is tried in. Its facets multiply with the
+#: dimension: a review measured 1.1 million facets, 100 s and 1.2 GB for a 6x6 pair.
+#: Every built-in scheme's matrices are at most 4x4.
+MAX_HULL_DIMENSION = 4
+
+#: Above this many facets the polytope gives up (branch and bound answers instead);
+#: closing at w = 1/16 + 1e-4 needs more than 20,000 (1.3 s).
+MAX_FACETS = 60_000
+
+
+class _GiveUp(Exception):
+    """The polytope cannot decide rigorously and cheaply: no hull's facets to measure
+    with (a linear program with HiGHS's absolute tolerances is not rigorous for thin
+    polytopes, a review showed), or too many facets."""
 
 
 def _leading_vectors(product: np.ndarray) -> np.ndarray:
@@ -211,20 +168,25 @@ def polytope_upper_bound(
     none could be made).
     """
     m = matrices.shape[-1]
-    if not lam > 0:
+    if not lam > 0 or m > MAX_HULL_DIMENSION:
         return np.inf, False
-    normalised = matrices / lam
-    polytope = _Polytope(_leading_vectors(product))
+    try:
+        return _grow(matrices / lam, _Polytope(_leading_vectors(product)), lam, m,
+                     2 * max_vertices)
+    except _GiveUp:
+        return np.inf, False
+
+
+def _grow(normalised, polytope, lam, m, budget):
     new = polytope.vertices
-    budget = max_vertices if m > MAX_HULL_DIMENSION else 2 * max_vertices
     # Vertices that stop being extreme are dropped, so an orbit that spirals outwards
     # can run for ever without reaching the budget: the generations are capped too.
     for _ in range(budget):
+        was_full = polytope.full
         # Each generation's children are measured together against the polytope before
-        # it (one linear program, or the hull's facets): a child that a sibling would
-        # have covered becomes a (redundant) vertex, which changes nothing proven.
-        # (Measuring grandchildren too, to save programs, was 3x slower on the
-        # four-point scheme: most of them are outside and the vertices multiply.)
+        # it: a child that a sibling would have covered becomes a (redundant) vertex,
+        # which changes nothing proven. (Measuring grandchildren too, to save work, was
+        # 3x slower on the four-point scheme: the vertices multiply.)
         new = polytope.add(polytope.outside(np.concatenate([a @ new for a in normalised], axis=1)))
         if not new.shape[1]:
             # Closed: ||A_i||_P <= 1, but only on the span of the vertices. A common
@@ -234,16 +196,21 @@ def polytope_upper_bound(
             if polytope.full:
                 return lam * (1 + LP_TOLERANCE), True
             missing = _complement(polytope.vertices, m)
-            new = polytope.add(1e-3 * np.linalg.norm(polytope.vertices, axis=0).min() * missing)
+            polytope.add(1e-3 * np.linalg.norm(polytope.vertices, axis=0).min() * missing)
+        if polytope.full and not was_full:
+            # While flat, children were measured by their projection on the span; now
+            # that P is a body, every vertex's children are measured in full again.
+            new = polytope.vertices
         if polytope.size > budget:
             break
     if not polytope.full:
         return np.inf, False
-    # Every earlier child lies in the (grown) polytope; only the newest vertices'
-    # children remain to be measured.
-    children = np.concatenate([a @ new for a in normalised], axis=1)
-    worst = float(polytope.norms(children).max()) if children.shape[1] else 1.0
-    return lam * max(1.0, worst) * (1 + LP_TOLERANCE), False
+    # The operator norms in P: every vertex's children, measured against P as it is.
+    children = np.concatenate([a @ polytope.vertices for a in normalised], axis=1)
+    norms = polytope.norms(children)
+    if norms is None:
+        return np.inf, False
+    return lam * max(1.0, float(norms.max())) * (1 + LP_TOLERANCE), False
 
 
 def _split(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -18,9 +18,9 @@ Method (Dyn and Levin 2002, sections 4-5; Rioul 1992; Daubechies and Lagarias 19
    upper bound $\max(\text{lower} + \delta, \max_P \|P\|^{1/k})$ over the products of
    length $k$ whose every prefix survived pruning, in the spectral norm of an adapted
    basis. Both are rigorous (up to floating-point rounding) and tighten as the search
-   deepens. When a fast pass leaves the bracket wider than `FAST_WIDTH` or the class
-   undecided, the invariant polytope algorithm (`polytope.py`; Guglielmi and Protasov
-   2013) proves the best short product spectrum-maximizing, which makes $\rho$ exact.
+   deepens. When a fast pass is not exact, the invariant polytope algorithm
+   (`polytope.py`; Guglielmi and Protasov 2013) tries to prove the best product found
+   spectrum-maximizing, which makes $\rho$ exact when it succeeds.
 
 References: N. Dyn, D. Levin, "Subdivision schemes in geometric modelling", Acta Numerica
 11 (2002) 73-144. O. Rioul, "Simple regularity criteria for subdivision schemes", SIAM J.
@@ -397,8 +397,10 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
     scheme is $C^k$ exactly for $k < \alpha$ (see the module notes for the theory and the
     references: Dyn and Levin 2002, Rioul 1992, Daubechies and Lagarias 1992). A fast
     branch-and-bound pass answers when it is already exact; otherwise the invariant polytope algorithm (Guglielmi and Protasov 2013)
-    usually finds $\rho$ exactly (`method` says which; `docs/analysis.md`). Every
-    built-in scheme at every parameter value we swept is bracketed within 0.01.
+    finds $\rho$ exactly when it closes (`method` says which; `docs/analysis.md`). Every
+    built-in scheme at every value of the benchmark's sweeps is bracketed within 0.01,
+    except the four-point scheme just above $w = 1/16$ (up to $10^{-4}$ above: brackets
+    up to 0.23 wide, the class still decided).
 
     When to use it: to choose or tune a parameter (is `FourPoint(w)` still $C^1$ at this
     `w`?), before asking for tangents, or to sweep a parameter: a fast pass takes a few
@@ -422,13 +424,12 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
     128-coefficient random mask ran for over 3 minutes). Above degree 8 the search keeps
     fewer products per length (its work is capped at what degree 8 costs), so the bounds
     are looser and `decided` is more often False; above degree 16 the polytope is not
-    tried. A worst case takes seconds: the polytope gives up after 160 vertices when
-    the spectrum-maximizing product has a complex leading eigenvalue (random masks of
-    degree 16: up to 1.5 s, brackets up to 0.3 wide).
+    tried (nor above degree 4, where its facets multiply: a review measured 100 s and
+    1.2 GB at degree 6). A worst case takes seconds.
 
     **Returns:** a [`jaxsubdiv.Smoothness`][] with `converges`, `holder_lower`,
     `holder_upper`, `continuity` (the largest $k$ with a $C^k$ limit, -1 if it does not
-    converge), `decided`, `factors`, `jsr_lower`, `jsr_upper` and `reason`.
+    converge), `decided`, `factors`, `jsr_lower`, `jsr_upper`, `reason` and `method`.
     A non-convergent scheme is reported (`converges=False`), not raised.
     """
     if not isinstance(scheme, AbstractCurveScheme):
