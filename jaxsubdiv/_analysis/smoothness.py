@@ -40,7 +40,7 @@ import numpy as np
 
 from .._misc import is_traced
 from .._scheme.base import AbstractCurveScheme
-from .polytope import polytope_upper_bound
+from .polytope import MAX_HULL_DIMENSION, polytope_upper_bound
 
 
 # A frozen dataclass, not an `eqx.Module`: the result is host data (Python bools, floats,
@@ -257,10 +257,6 @@ def _effort(effort: dict, m: int) -> dict:
     return {**effort, "max_products": max(16, scaled)}
 
 
-#: The largest transition matrices for which `smoothness` runs the invariant polytope
-#: algorithm (its linear programs grow with the size; every built-in scheme is smaller).
-MAX_POLYTOPE_SIZE = 16
-
 #: The Hölder bracket the first, fast pass must reach for `smoothness` to stop there
 #: (in effect: exact, as for the B-splines and the corner-cutting line); anything wider
 #: goes to the invariant polytope, which is exact when it closes and costs 1-150 ms
@@ -312,17 +308,16 @@ def jsr_search(matrices: np.ndarray, n: int) -> tuple[float, float, str]:
     low_alpha, high_alpha = _holder_bracket(n, lo, hi)
     if lo == hi or (high_alpha - low_alpha <= FAST_WIDTH and _decided(low_alpha, high_alpha)):
         return lo, hi, "branch and bound"
-    if 1 < m <= MAX_POLYTOPE_SIZE:
+    if 1 < m <= MAX_HULL_DIMENSION:
         # The candidate: the best of all short products, unless the branch and bound
         # met a longer, better one (corner cutting near r = 0: length 12).
         radius, product = best_product(matrices)
         if lo > radius * (1 + 1e-9):
             radius, product = lo, searched
-        if radius >= lo * (1 - 1e-9):  # the same product, up to rounding
-            bound, exact = polytope_upper_bound(matrices, product, radius)
-            if exact:
-                return radius, bound, "invariant polytope"
-            lo, hi = max(lo, radius), min(hi, bound)
+        bound, exact = polytope_upper_bound(matrices, product, radius)
+        if exact:
+            return radius, bound, "invariant polytope"
+        lo, hi = max(lo, radius), min(hi, bound)
     for effort in _PASSES[1:]:
         deeper_lo, deeper_hi, _ = jsr_bounds(matrices, **_effort(effort, m))
         lo, hi = max(lo, deeper_lo), min(hi, deeper_hi)
@@ -423,9 +418,9 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
     are a `ValueError` (the search costs $O(M^3)$ per matrix product: a
     128-coefficient random mask ran for over 3 minutes). Above degree 8 the search keeps
     fewer products per length (its work is capped at what degree 8 costs), so the bounds
-    are looser and `decided` is more often False; above degree 16 the polytope is not
-    tried (nor above degree 4, where its facets multiply: a review measured 100 s and
-    1.2 GB at degree 6). A worst case takes seconds.
+    are looser and `decided` is more often False; above degree 4 the polytope is not
+    tried (its facets multiply: a review measured 100 s and 1.2 GB at degree 6). A worst
+    case takes seconds.
 
     **Returns:** a [`jaxsubdiv.Smoothness`][] with `converges`, `holder_lower`,
     `holder_upper`, `continuity` (the largest $k$ with a $C^k$ limit, -1 if it does not
