@@ -56,11 +56,6 @@ class _Polytope:
         self.vertices = np.zeros((vertices.shape[0], 0))
         self.add(vertices)
 
-    @property
-    def size(self) -> int:
-        """The number of vertices (the extreme ones when Qhull keeps the hull)."""
-        return self.vertices.shape[1]
-
     def add(self, points: np.ndarray) -> np.ndarray:
         """Add the columns of `points` as vertices; return those that are extreme."""
         from scipy.spatial import ConvexHull, QhullError
@@ -83,7 +78,7 @@ class _Polytope:
         # inputs that kill the interpreter), and was no faster here.
         try:
             hull = ConvexHull(np.concatenate([old, -old, new, -new], axis=1).T)
-        except (QhullError, ValueError):  # degenerate: linear programs instead
+        except (QhullError, ValueError):  # degenerate: no facets, the search gives up
             return points
         # Facet f: normal . p + offset <= 0 inside, offset < 0 (the origin is inside).
         normals, offsets = hull.equations[:, :-1], hull.equations[:, -1]
@@ -201,7 +196,7 @@ def _grow(normalised, polytope, lam, m, budget):
             # While flat, children were measured by their projection on the span; now
             # that P is a body, every vertex's children are measured in full again.
             new = polytope.vertices
-        if polytope.size > budget:
+        if polytope.vertices.shape[1] > budget:
             break
     if not polytope.full:
         return np.inf, False

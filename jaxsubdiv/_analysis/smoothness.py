@@ -71,7 +71,7 @@ class Smoothness:
     - `reason`: a sentence saying why a scheme does not converge (empty otherwise).
     - `method`: how the bounds were found: `"closed form"` (no factor $q$ left: the
       B-splines), `"branch and bound"` (Gripenberg 1996), `"invariant polytope"`
-      (Guglielmi and Protasov 2013: exact, the bracket is the linear programs'
+      (Guglielmi and Protasov 2013: exact, the bracket is the hull test's
       tolerance, about $10^{-9}$ wide), or `"sub-mask sums"` (not affine invariant).
     """
 
@@ -260,7 +260,7 @@ def _effort(effort: dict, m: int) -> dict:
 #: The Hölder bracket the first, fast pass must reach for `smoothness` to stop there
 #: (in effect: exact, as for the B-splines and the corner-cutting line); anything wider
 #: goes to the invariant polytope, which is exact when it closes and costs 1-150 ms
-#: (one to a few hundred hulls or linear programs).
+#: (one to a few hundred convex hulls).
 FAST_WIDTH = 1e-6
 
 
