@@ -676,6 +676,69 @@ def test_doo_sabin_crease_on_closed_mesh():
             assert d.min(axis=1).max() < 1e-13 and d.min(axis=0).max() < 1e-13
 
 
+def cube_with_valence_two_vertex():
+    """The cube with face [0, 1, 3, 2] split into two quads through a new vertex 8 in
+    that face, which lies on two edges only (Suzanne has such a vertex)."""
+    v, f = cube()
+    faces = [[0, 1, 3, 8], [3, 2, 0, 8], *f[1:].tolist()]
+    return np.concatenate([v, [[-1.2, 0.0, 0.0]]]), faces
+
+
+def assert_closed_oriented_polygons(faces):
+    """Every face has 3 or more vertices, every undirected edge lies in exactly two
+    faces and every directed edge in one (plain Python over the face lists)."""
+    directed = []
+    for row in faces:
+        row = [int(x) for x in row if x >= 0]
+        assert len(row) >= 3, row
+        directed += [(row[i], row[(i + 1) % len(row)]) for i in range(len(row))]
+    assert len(set(directed)) == len(directed)
+    undirected = np.unique(np.sort(np.array(directed), axis=1), axis=0, return_counts=True)[1]
+    assert np.all(undirected == 2)
+
+
+@pytest.mark.parametrize("scheme", [jss.DooSabin(), jss.CatmullClark()], ids=["ds", "cc"])
+def test_vertex_of_valence_two(scheme, tmp_path):
+    """Doo-Sabin gave a valence-2 vertex a 2-gon V-face, which broke the next level
+    (and `write_mesh` wrote a file `read_mesh` refused). Now it has no V-face: the
+    refined meshes are closed, oriented polygon meshes of the sphere's Euler
+    characteristic, with F + E + (V - 1) faces after one level, and read back."""
+    mesh = jss.Mesh(*cube_with_valence_two_vertex())
+    base = counts(mesh)
+    for levels in (1, 2, 3):
+        fine = jss.refine_mesh(mesh, scheme, levels)
+        assert_closed_oriented_polygons(fine.faces)
+        jss.write_mesh(tmp_path / "fine.obj", fine)
+        np.testing.assert_array_equal(jss.read_mesh(tmp_path / "fine.obj").faces, fine.faces)
+        c = counts(fine)
+        assert c["V"] - c["E"] + c["F"] == 2
+        if levels == 1 and isinstance(scheme, jss.DooSabin):
+            assert c["F"] == base["F"] + base["E"] + base["V"] - 1
+
+
+SCHEMES_ON_MESHES = [(jss.Loop(), icosahedron), (jss.CatmullClark(), cube), (jss.DooSabin(), cube),
+                     (jss.CatmullClark(), lambda: grid(3, 2)), (jss.DooSabin(), lambda: grid(3, 2))]  # fmt: skip
+
+
+@pytest.mark.parametrize("scheme, make", SCHEMES_ON_MESHES,
+                         ids=["loop", "cc", "ds", "cc_grid", "ds_grid"])  # fmt: skip
+def test_vertex_in_no_face_is_kept(scheme, make):
+    """A vertex that no face uses (common in OBJ files) is kept, unchanged, by every
+    scheme (Doo-Sabin dropped it); the other refined vertices are those of the mesh
+    without it, in the same order."""
+    v, f = make()
+    f = np.asarray(f)
+    k, extra = 3, np.array([7.0, 8.0, 9.0])
+    with_extra = jss.Mesh(np.insert(v, k, extra, axis=0), np.where(f >= k, f + 1, f))
+    for levels in (1, 2):
+        fine = jss.refine_mesh(with_extra, scheme, levels)
+        points = np.asarray(fine.vertices)
+        (at,) = np.flatnonzero(np.all(points == extra, axis=1))
+        assert at not in fine.faces
+        without = np.asarray(jss.refine_mesh(jss.Mesh(v, f), scheme, levels).vertices)
+        np.testing.assert_allclose(np.delete(points, at, axis=0), without, rtol=0, atol=1e-12)
+
+
 # ------------------------------------------- boundary interpolation: edge only
 
 
@@ -955,6 +1018,8 @@ def test_errors():
         jss.Refiner(jss.Mesh(v, [[0, 1, 1, 2]]), jss.CatmullClark())
     with pytest.raises(ValueError, match="only 8 vertices"):
         jss.Mesh(v, [[0, 1, 9]])
+    with pytest.raises(ValueError, match="face 1 holds the index -2; vertex indices are 0 or more"):
+        jss.Mesh(v, [[0, 1, 2], [0, 2, -2]])  # was taken as padding: a silent triangle
     with pytest.raises(ValueError, match="levels"):
         jss.Refiner(jss.Mesh(v, f), jss.CatmullClark(), -1)
     with pytest.raises(TypeError, match="scheme"):

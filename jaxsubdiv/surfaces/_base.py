@@ -72,6 +72,7 @@ class Counts:
     half_edges: int
     sharp: int  # sharp (boundary or crease) edges
     corner_ends: int  # sharp edges counted at each corner vertex they end at
+    isolated: int = 0  # vertices in no face (every scheme keeps them as they are)
 
     @staticmethod
     def of(topo: Topology) -> "Counts":
@@ -79,6 +80,7 @@ class Counts:
         return Counts(
             topo.num_vertices, topo.num_edges, topo.num_faces, topo.num_half_edges,
             int(topo.sharp_edge.sum()), int(ends[topo.vertex_type == CORNER].sum()),
+            int((topo.valence == 0).sum()),
         )  # fmt: skip
 
 
@@ -120,7 +122,7 @@ class AbstractSurfaceScheme(eqx.Module):
         sharp = 2 * c.sharp + c.corner_ends
         return Counts(
             c.vertices + c.edges + c.faces + c.half_edges, (half_edges + sharp) // 2,
-            half_edges // 3, half_edges, sharp, c.corner_ends,
+            half_edges // 3, half_edges, sharp, c.corner_ends, c.isolated,
         )  # fmt: skip
 
     def limit(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> LimitStencils:

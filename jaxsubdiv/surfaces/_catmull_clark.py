@@ -130,7 +130,7 @@ class CatmullClark(AbstractSurfaceScheme):
         # Exact: a vertex, edge and face point each; every k-gon becomes k quads.
         return Counts(
             c.vertices + c.edges + c.faces, 2 * c.edges + c.half_edges, c.half_edges,
-            4 * c.half_edges, 2 * c.sharp, c.corner_ends,
+            4 * c.half_edges, 2 * c.sharp, c.corner_ends, c.isolated,
         )  # fmt: skip
 
     def level(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> Level:

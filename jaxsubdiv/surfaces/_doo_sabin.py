@@ -52,11 +52,15 @@ class DooSabin(AbstractSurfaceScheme):
     one crease (a *dart*) gets one V-face that starts and ends at the crease's
     Chaikin point. No limit stencils.
 
+    A smooth vertex of valence 2 gets no V-face (it would be a 2-gon whose two sides
+    are one edge); the E-faces of its two edges meet along that edge instead. A vertex
+    in no face is kept as it is, as Loop and Catmull-Clark keep it.
+
     Refined vertex order: one vertex per face corner, in face order (face 0's corners,
     then face 1's, ...); then two per sharp edge, in the edge order of `Mesh.edges`
-    (the point near the smaller vertex index first); then one per kept corner, in
-    vertex order. Refined faces: F-faces, smooth E-faces, sharp E-faces, V-faces of
-    smooth vertices, sector V-faces.
+    (the point near the smaller vertex index first); then one per kept corner or
+    vertex in no face, in vertex order. Refined faces: F-faces, smooth E-faces, sharp
+    E-faces, V-faces of smooth vertices, sector V-faces.
 
     References: D. Doo and M. Sabin, "Behaviour of recursive division surfaces near
     extraordinary points", Computer-Aided Design 10 (1978) 356-360; A. H. Nasri,
@@ -72,22 +76,24 @@ class DooSabin(AbstractSurfaceScheme):
         # (one per smooth vertex, one per sector). Half-edges: 4H, plus at most 8 per
         # sharp edge and one per sharp-edge end at a corner; sharp edges: two halves
         # each, plus one per end at a corner. Exact on closed meshes without tags,
-        # upper estimates where boundaries, creases and corners enter.
+        # upper estimates where boundaries, creases, corners, smooth vertices of valence
+        # 2 (no V-face) and vertices in no face (kept, no faces) enter.
         half_edges = 4 * c.half_edges + 8 * c.sharp + c.corner_ends
         sharp = 2 * c.sharp + c.corner_ends
         return Counts(
-            c.half_edges + 2 * c.sharp + c.corner_ends, (half_edges + sharp) // 2,
+            c.half_edges + 2 * c.sharp + c.corner_ends + c.isolated, (half_edges + sharp) // 2,
             c.faces + c.edges + c.vertices + 2 * c.sharp + c.corner_ends, half_edges, sharp,
-            c.corner_ends,
+            c.corner_ends, c.isolated,
         )  # fmt: skip
 
     def level(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> Level:
         topo = topology
         V, E, H = topo.num_vertices, topo.num_edges, topo.num_half_edges
         nsharp = topo.num_sharp()
+        isolated = topo.valence == 0  # in no face: kept as it is, like Loop and CC keep it
         bad = np.zeros(V, bool)
         bad[np.asarray(corners, np.int64)] = True
-        bad &= nsharp < 2
+        bad &= (nsharp < 2) & ~isolated
         if np.any(bad):
             v = int(np.argmax(bad))
             raise ValueError(
@@ -96,7 +102,7 @@ class DooSabin(AbstractSurfaceScheme):
                 "meet (a dual scheme has no vertex point elsewhere). Tag creases through "
                 "it, or use `Loop()` or `CatmullClark()`."
             )
-        kept = (topo.vertex_type == CORNER) & (nsharp >= 2)
+        kept = ((topo.vertex_type == CORNER) & (nsharp >= 2)) | isolated
         sharp = np.flatnonzero(topo.sharp_edge)
         S = len(sharp)
         sharp_rank = np.full(E, -1, np.int64)
@@ -145,11 +151,13 @@ class DooSabin(AbstractSurfaceScheme):
         flat.append(np.stack(quads, 1).reshape(-1))
         sizes.append(np.full(len(h), 4))
         # V-faces of vertices on no sharp edge: the corners around them, in ring order.
+        # A vertex of valence 2 would get a 2-gon, whose two sides are one edge: it is
+        # left out, and the two E-faces of its edges meet along that edge instead.
         order, start = topo.ring()
-        smooth = nsharp[topo.origin[order]] == 0
         counts = np.diff(start)
-        flat.append(order[smooth])
-        sizes.append(counts[(counts > 0) & (nsharp == 0)])
+        polygon = (counts > 2) & (nsharp == 0)
+        flat.append(order[polygon[topo.origin[order]]])
+        sizes.append(counts[polygon])
         # Sector V-faces: [first Chaikin point, corners, last Chaikin point, kept vertex].
         order, start = topo.sectors()
         counts = np.diff(start)

@@ -115,7 +115,7 @@ class Loop(AbstractSurfaceScheme):
         # Exact for triangles: an edge point per edge, four triangles per triangle.
         return Counts(
             c.vertices + c.edges, 2 * c.edges + 3 * c.faces, 4 * c.faces, 4 * c.half_edges,
-            2 * c.sharp, c.corner_ends,
+            2 * c.sharp, c.corner_ends, c.isolated,
         )  # fmt: skip
 
     def level(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> Level:

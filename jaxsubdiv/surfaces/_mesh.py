@@ -63,6 +63,14 @@ def as_faces(faces) -> np.ndarray:
         if np.any(array != np.round(array)):
             raise TypeError("`faces` must hold integer vertex indices.")
     array = array.astype(np.int64)
+    if np.any(array < -1):
+        f, k = np.argwhere(array < -1)[0]
+        raise ValueError(
+            f"`faces`: face {int(f)} holds the index {int(array[f, k])}; vertex indices "
+            "are 0 or more, and -1 only pads a face shorter than the others. (Negative "
+            "indices that count back from the last vertex are an OBJ convention: "
+            "`read_mesh` resolves them.)"
+        )
     valid = array >= 0
     # Padding (-1) may only trail the real indices of a face.
     if np.any(~valid[:, :-1] & valid[:, 1:]):
@@ -106,6 +114,8 @@ class Mesh(eqx.Module):
       rules, so the surface keeps a sharp feature along them.
     - `corners`: vertex indices held fixed (interpolated) by refinement.
 
+    Vertices that no face uses are allowed: every scheme keeps them, unchanged.
+
     Boundary edges are always treated as creases; a boundary vertex with a single
     incident face is a corner unless the scheme's `boundary_interpolation` is
     `"edge_only"` (Loop, Catmull-Clark). [`jaxsubdiv.surfaces.refine_mesh`][] carries
@@ -128,8 +138,8 @@ class Mesh(eqx.Module):
         """**Arguments:**
 
         - `vertices`: `(V, C)` vertex data, usually positions with `C = 3`.
-        - `faces`: an `(F, K)` integer array (`-1` pads smaller faces) or a list of
-          vertex-index lists of any lengths. Counter-clockwise faces give outward
+        - `faces`: an `(F, K)` integer array (`-1` pads smaller faces; no other
+          negative index) or a list of vertex-index lists of any lengths. Counter-clockwise faces give outward
           normals.
         - `creases`: optional `(C, 2)` vertex pairs tagged as infinitely sharp edges.
           Keyword only.
