@@ -1,6 +1,6 @@
 """Host-side (numpy) topology of a polygon mesh: half-edges, edges, vertex types.
 
-Everything here is vectorized numpy: sorting and `np.unique` build the edge table, and
+Everything here is vectorized numpy: one sort builds the edge table, and
 pointer jumping orders the one-rings, so a mesh of 100,000 faces needs no Python loop
 over its vertices or faces. Nothing here is traced; the results become stencil tables.
 """
@@ -196,36 +196,44 @@ def build_topology(
     prv = np.where(local == 0, offsets[face] + sizes[face] - 1, np.arange(H) - 1)
     dest = origin[nxt]
 
-    # A vertex repeated inside one face shows up as two equal (face, vertex) pairs.
-    fv = np.unique(face * V + origin, return_counts=True)[1]
-    if np.any(fv > 1):
-        keys, counts = np.unique(face * V + origin, return_counts=True)
-        f = int(keys[np.argmax(counts > 1)] // V)
+    # A vertex repeated inside one face: equal neighbours once each face is sorted.
+    ordered = np.sort(faces, axis=1)
+    repeated = np.any((ordered[:, 1:] == ordered[:, :-1]) & (ordered[:, 1:] >= 0), axis=1)
+    if np.any(repeated):
+        f = int(np.argmax(repeated))
         raise ValueError(f"`faces`: face {f} uses the same vertex twice ({faces[f].tolist()}).")
 
-    directed = origin * V + dest
-    dkeys, dcounts = np.unique(directed, return_counts=True)
+    # One sort of the undirected edge keys gives the edges, their half-edges and counts
+    # (`np.unique` would sort again for each of those).
     lo, hi = np.minimum(origin, dest), np.maximum(origin, dest)
-    ukeys, edge, ecounts = np.unique(lo * V + hi, return_inverse=True, return_counts=True)
+    keys = lo * V + hi
+    order = np.argsort(keys, kind="stable")
+    sorted_keys = keys[order]
+    starts = np.ones(H, bool)
+    starts[1:] = sorted_keys[1:] != sorted_keys[:-1]
+    first = np.flatnonzero(starts)
+    ukeys = sorted_keys[first]
+    ecounts = np.diff(np.append(first, H))
+    edge = np.empty(H, np.int64)
+    edge[order] = np.cumsum(starts) - 1
     if np.any(ecounts > 2):
         k = ukeys[np.argmax(ecounts > 2)]
         raise ValueError(
             f"The mesh is not manifold: edge ({int(k // V)}, {int(k % V)}) is shared by "
             f"{int(ecounts.max())} faces; subdivision needs every edge in one or two faces."
         )
-    if np.any(dcounts > 1):
-        k = dkeys[np.argmax(dcounts > 1)]
-        raise ValueError(
-            f"Faces are not consistently oriented: the directed edge ({int(k // V)}, "
-            f"{int(k % V)}) appears in two faces. Reverse the vertex order of one of them."
-        )
-    edges = np.stack([ukeys // V, ukeys % V], axis=1)
-    order = np.argsort(edge, kind="stable")
-    first = np.concatenate([[0], np.cumsum(ecounts)])[:-1]
-    edge_half = order[first]
-    twin = np.full(H, -1, np.int64)
     pair = ecounts == 2
     a, b = order[first[pair]], order[first[pair] + 1]
+    same = origin[a] == origin[b]  # both half-edges run the same way
+    if np.any(same):
+        h = a[np.argmax(same)]
+        raise ValueError(
+            f"Faces are not consistently oriented: the directed edge ({int(origin[h])}, "
+            f"{int(dest[h])}) appears in two faces. Reverse the vertex order of one of them."
+        )
+    edges = np.stack([ukeys // V, ukeys % V], axis=1)
+    edge_half = order[first]
+    twin = np.full(H, -1, np.int64)
     twin[a], twin[b] = b, a
     boundary_edge = ecounts == 1
 
