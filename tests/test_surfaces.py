@@ -1,5 +1,7 @@
 """Subdivision surfaces: counts, limits against B-splines and box splines, tags, AD."""
 
+import pathlib
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -319,6 +321,14 @@ tagged_meshes = [
     # A crease from the boundary ending inside: a dart at vertex 12.
     ("dart_cc", lambda: grid(4, 4), jss.CatmullClark(), dict(creases=[[2, 7], [7, 12]])),
     ("dart_loop", lambda: grid(4, 4, triangles=True), jss.Loop(), dict(creases=[[2, 7], [7, 12]])),
+    # Semi-sharp tags: the limit after the sharpness has decayed (#19).
+    ("semi_sharp_cc", lambda: grid(4, 4), jss.CatmullClark(),
+     dict(creases=[[i * 5 + 2, (i + 1) * 5 + 2] for i in range(4)], crease_sharpness=1.5,
+          corners=[6], corner_sharpness=0.7)),
+    ("semi_sharp_loop", lambda: grid(4, 4, triangles=True), jss.Loop(),
+     dict(creases=[[i * 5 + 2, (i + 1) * 5 + 2] for i in range(4)], crease_sharpness=[0.4, 1.2, 1.5, 0.8])),
+    ("semi_sharp_chaikin", lambda: grid(4, 4), jss.CatmullClark(crease_method="chaikin"),
+     dict(creases=[[i * 5 + 2, (i + 1) * 5 + 2] for i in range(4)], crease_sharpness=[0.4, 1.2, 1.5, 0.8])),
 ]  # fmt: skip
 
 
@@ -332,8 +342,9 @@ def test_limit_positions_agree_with_deep_refinement(name, make, scheme, tags):
     again = jss.limit_positions(jss.refine_mesh(mesh, scheme, 2), scheme)[:V]
     np.testing.assert_allclose(again, limit, atol=1e-12)
     # Vertex points converge to it: the distance shrinks by the subdominant
-    # eigenvalue (squared, at regular and crease vertices) per level, <= 1/4 here.
-    deep = np.asarray(jss.Refiner(mesh, scheme, 5)(v))[:V]
+    # eigenvalue (squared, at regular and crease vertices) per level, <= 1/4 here,
+    # once semi-sharp tags have decayed (2 levels for sharpness up to 2).
+    deep = np.asarray(jss.Refiner(mesh, scheme, 7 if mesh.semi_sharp else 5)(v))[:V]
     scale = np.abs(v).max()
     np.testing.assert_allclose(deep, limit, atol=4e-4 * scale)
 
@@ -737,6 +748,172 @@ def test_vertex_in_no_face_is_kept(scheme, make):
         assert at not in fine.faces
         without = np.asarray(jss.refine_mesh(jss.Mesh(v, f), scheme, levels).vertices)
         np.testing.assert_allclose(np.delete(points, at, axis=0), without, rtol=0, atol=1e-12)
+
+
+# ------------------------------------------- semi-sharp creases (#19)
+#
+# DeRose, Kass and Truong (1998), section 3, and OpenSubdiv: a tag of integer sharpness
+# k refines like an infinitely sharp one for k levels and is gone after; a fractional
+# remainder blends the sharp and the smooth rule linearly. These tests check that from
+# the infinitely sharp and the untagged refinement (both tested above), and the Blender
+# test below checks the whole rule set against OpenSubdiv itself.
+
+
+def cube_loop_tags():
+    """The cube and the four edges around its face [0, 1, 3, 2] (a crease loop: every
+    vertex on it has exactly two tagged edges)."""
+    v, f = cube()
+    loop = [0, 1, 3, 2]
+    return v, f, [[loop[i], loop[(i + 1) % 4]] for i in range(4)]
+
+
+def refined(v, f, scheme, levels, **tags):
+    return np.asarray(jss.refine_mesh(jss.Mesh(v, f, **tags), scheme, levels).vertices)
+
+
+PRIMAL = [jss.CatmullClark(), jss.CatmullClark(crease_method="chaikin")]
+
+
+def icosahedron_tags():
+    """The icosahedron and a triangle of edges around its face 0."""
+    return (*icosahedron(), [[0, 11], [11, 5], [5, 0]])
+
+
+@pytest.mark.parametrize("scheme, make", [(PRIMAL[0], cube_loop_tags), (PRIMAL[1], cube_loop_tags),
+                                          (jss.Loop(), icosahedron_tags)],
+                         ids=["uniform", "chaikin", "loop"])  # fmt: skip
+def test_integer_sharpness_is_sharp_for_that_many_levels(scheme, make):
+    v, f, creases = make()
+    for k in (1, 2):
+        tagged = jss.refine_mesh(jss.Mesh(v, f, creases=creases), scheme, k)
+        for more in (0, 1):
+            want = refined(np.asarray(tagged.vertices), tagged.faces, scheme, more)
+            got = refined(v, f, scheme, k + more, creases=creases, crease_sharpness=k)
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-14)
+    # 10 and more is OpenSubdiv's infinite sharpness.
+    np.testing.assert_array_equal(refined(v, f, scheme, 3, creases=creases, crease_sharpness=10),
+                                  refined(v, f, scheme, 3, creases=creases))
+
+
+@pytest.mark.parametrize("s", [0.25, 0.5, 0.9])
+def test_fractional_sharpness_blends_sharp_and_smooth_rules(s):
+    """On a crease loop of sharpness s < 1 every edge point and every crease vertex is
+    `s * sharp + (1 - s) * smooth`, and the rest of the level has no tag to see: one
+    level is exactly that blend of the sharp and the untagged level."""
+    for scheme, make in [(PRIMAL[0], cube_loop_tags), (PRIMAL[1], cube_loop_tags),
+                         (jss.Loop(), icosahedron_tags)]:  # fmt: skip
+        v, f, creases = make()
+        sharp = refined(v, f, scheme, 1, creases=creases)
+        smooth = refined(v, f, scheme, 1)
+        got = refined(v, f, scheme, 1, creases=creases, crease_sharpness=s)
+        np.testing.assert_allclose(got, s * sharp + (1 - s) * smooth, rtol=0, atol=1e-14)
+
+
+def test_sharpness_above_one_blends_at_the_last_level():
+    """Sharpness 1.5: the first level is sharp, the second blends with weight 0.5."""
+    v, f, creases = cube_loop_tags()
+    scheme = jss.CatmullClark()
+    first = jss.refine_mesh(jss.Mesh(v, f, creases=creases), scheme, 1)
+    u = np.asarray(first.vertices)
+    want = 0.5 * refined(u, first.faces, scheme, 1, creases=first.creases) + 0.5 * refined(
+        u, first.faces, scheme, 1
+    )
+    got = refined(v, f, scheme, 2, creases=creases, crease_sharpness=1.5)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-14)
+
+
+def test_corner_sharpness():
+    """A corner of sharpness 1.5 stays for one level, then its vertex point is half the
+    corner rule (the vertex itself) and half the smooth rule."""
+    v, f = cube()
+    scheme = jss.CatmullClark()
+    first = refined(v, f, scheme, 1, corners=[0])
+    np.testing.assert_allclose(refined(v, f, scheme, 1, corners=[0], corner_sharpness=1.5), first,
+                               rtol=0, atol=1e-15)  # fmt: skip
+    fine = jss.refine_mesh(jss.Mesh(v, f), scheme, 1)
+    smooth = refined(first, fine.faces, scheme, 1)
+    got = refined(v, f, scheme, 2, corners=[0], corner_sharpness=1.5)
+    np.testing.assert_allclose(got[0], 0.5 * first[0] + 0.5 * smooth[0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(got[1:], smooth[1:], rtol=0, atol=1e-15)
+
+
+def test_chaikin_sharpness_of_the_refined_creases():
+    """OpenSubdiv's Chaikin method: the half of a crease edge at a vertex with other
+    semi-sharp edges gets 3/4 of its sharpness plus 1/4 of the others' mean, less 1;
+    at a vertex with none, sharpness less 1 (the uniform rule everywhere else)."""
+    v, f = grid(4, 4)
+    chain = [[2, 7], [7, 12], [12, 17]]  # 2 and 17 on the boundary
+    mesh = jss.Mesh(v, f, creases=chain, crease_sharpness=[2.0, 3.0, 4.5])
+    refiner = jss.Refiner(mesh, jss.CatmullClark(crease_method="chaikin"), 1)
+    mid = {tuple(e): 25 + i for i, e in enumerate(jss.Mesh(v, f).edges().tolist())}
+    want = {  # (vertex, edge point): sharpness
+        (2, mid[(2, 7)]): 2.0 - 1,
+        (7, mid[(2, 7)]): 0.75 * 2.0 + 0.25 * 3.0 - 1,
+        (7, mid[(7, 12)]): 0.75 * 3.0 + 0.25 * 2.0 - 1,
+        (12, mid[(7, 12)]): 0.75 * 3.0 + 0.25 * 4.5 - 1,
+        (12, mid[(12, 17)]): 0.75 * 4.5 + 0.25 * 3.0 - 1,
+        (17, mid[(12, 17)]): 4.5 - 1,
+    }
+    got = {tuple(sorted(p)): s for p, s in zip(refiner.creases.tolist(), refiner.crease_sharpness)}
+    assert got == pytest.approx({tuple(sorted(k)): s for k, s in want.items()}, abs=1e-15)
+    uniform = jss.Refiner(mesh, jss.CatmullClark(), 1)
+    assert sorted(uniform.crease_sharpness) == pytest.approx([1, 1, 2, 2, 3.5, 3.5])
+
+
+BLENDER = pathlib.Path(__file__).parent / "data" / "blender_creases.npz"
+BLENDER_CASES = ["a_cube_all_0p5", "b_cube_top_1p0", "c_cube_top_2p5", "d_cube_top_mixed",
+                 "e_cube_one_edge_1p5", "f_cube_vertex_2p0", "g_grid_two_edges_1p5",
+                 "h_grid_chain_to_boundary_1p5"]  # fmt: skip
+
+
+@pytest.mark.parametrize("case", BLENDER_CASES)
+def test_semi_sharp_matches_blender(case):
+    """Blender 5.0.1's Subdivision Surface modifier (OpenSubdiv, uniform crease method,
+    edge-and-corner boundaries) on cubes and an open grid with semi-sharp edges of
+    sharpness 0.3 to 3 (mixed around one face in case d) and a semi-sharp vertex,
+    levels 1 to 3 (`benchmarks/blender_creases.py` made the file). Blender numbers its
+    refined vertices its own way, so they are matched by position; Blender computes in
+    float32."""
+    data = np.load(BLENDER)
+    v = data[f"{case}_vertices"].astype(np.float64)
+    creases, sharpness = data[f"{case}_creases"], data[f"{case}_sharpness"].astype(np.float64)
+    corners = corner_sharpness = None
+    if f"{case}_vertex_sharpness" in data:
+        vertex = data[f"{case}_vertex_sharpness"].astype(np.float64)
+        corners = np.flatnonzero(vertex)
+        corner_sharpness = vertex[corners]
+    mesh = jss.Mesh(v, data[f"{case}_faces"], creases=creases if len(creases) else None,
+                    crease_sharpness=sharpness if len(creases) else None, corners=corners,
+                    corner_sharpness=corner_sharpness)  # fmt: skip
+    assert mesh.semi_sharp
+    for level in (1, 2, 3):
+        ours = np.asarray(jss.refine_mesh(mesh, jss.CatmullClark(), level).vertices)
+        theirs = data[f"{case}_L{level}_vertices"].astype(np.float64)
+        assert ours.shape == theirs.shape
+        d = np.linalg.norm(ours[:, None] - theirs[None], axis=-1)
+        # Every vertex has its own counterpart within float32 rounding.
+        assert d.min(axis=1).max() < 2e-6 and d.min(axis=0).max() < 2e-6
+        assert len(np.unique(d.argmin(axis=1))) == len(ours)
+    # The same with sharpness ignored differs visibly: the test can fail.
+    smooth = np.asarray(jss.refine_mesh(jss.Mesh(v, mesh.faces), jss.CatmullClark(), 1).vertices)
+    theirs = data[f"{case}_L1_vertices"].astype(np.float64)
+    assert np.linalg.norm(smooth[:, None] - theirs[None], axis=-1).min(axis=1).max() > 1e-3
+
+
+def test_semi_sharp_errors():
+    v, f, creases = cube_loop_tags()
+    with pytest.raises(ValueError, match="`crease_sharpness` must be > 0"):
+        jss.Mesh(v, f, creases=creases, crease_sharpness=[1, 0, 1, 1])
+    with pytest.raises(ValueError, match="`crease_sharpness` must be > 0"):
+        jss.Mesh(v, f, creases=creases, crease_sharpness=np.nan)
+    with pytest.raises(ValueError, match="one value per tag \\(4\\), got 3"):
+        jss.Mesh(v, f, creases=creases, crease_sharpness=[1, 2, 3])
+    with pytest.raises(ValueError, match="tags the edge \\[0, 1\\] twice with different sharpness"):
+        jss.Mesh(v, f, creases=[[0, 1], [1, 0]], crease_sharpness=[1, 2])
+    with pytest.raises(ValueError, match="DooSabin\\(\\) does not take"):
+        jss.Refiner(jss.Mesh(v, f, creases=creases, crease_sharpness=2), jss.DooSabin())
+    with pytest.raises(ValueError, match="crease_method=...\\)` must be 'uniform' or 'chaikin'"):
+        jss.Loop(crease_method="sharp")
 
 
 # ------------------------------------------- boundary interpolation: edge only

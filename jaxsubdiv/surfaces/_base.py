@@ -19,6 +19,8 @@ class Level:
     faces: np.ndarray  # padded (F', K') refined faces
     creases: np.ndarray  # (C', 2) tagged crease edges of the refined mesh
     corners: np.ndarray  # tagged corner vertices of the refined mesh
+    crease_sharpness: np.ndarray | None = None  # (C',); None: all infinitely sharp
+    corner_sharpness: np.ndarray | None = None
 
 
 # Kinds of sector normals (see `sector_stencils`).
@@ -162,12 +164,13 @@ def vertex_rule(
     diag = np.where(vt == SMOOTH, smooth_center, np.where(vt == CREASE, center, 1.0))
     rows, cols, weights = [np.arange(V)], [np.arange(V)], [diag]
     a, b = topo.edges[:, 0], topo.edges[:, 1]
-    for p, q in ((a, b), (b, a)):
+    sharp_at = (topo.sharp_edge, topo.sharp_edge) if topo.crease_end is None else topo.crease_end.T
+    for p, q, sharp in ((a, b, sharp_at[0]), (b, a, sharp_at[1])):
         m = vt[p] == SMOOTH
         rows += [p[m]]
         cols += [q[m]]
         weights += [smooth_neighbor[p[m]]]
-        m = (vt[p] == CREASE) & topo.sharp_edge
+        m = (vt[p] == CREASE) & sharp
         rows += [p[m]]
         cols += [q[m]]
         weights += [np.full(m.sum(), side)]
@@ -472,12 +475,16 @@ def limit_stencils(topo: Topology, position: Sparse, tangent_u: Sparse, tangent_
 BOUNDARY_INTERPOLATION = ("edge_and_corner", "edge_only")
 
 
+CREASE_METHODS = ("uniform", "chaikin")
+
+
 def check_boundary_interpolation(scheme) -> None:
     """A `ValueError` naming the scheme and the values for an unknown
-    `boundary_interpolation`."""
-    if scheme.boundary_interpolation not in BOUNDARY_INTERPOLATION:
-        raise ValueError(
-            f"`{type(scheme).__name__}(boundary_interpolation=...)` must be "
-            f"{' or '.join(map(repr, BOUNDARY_INTERPOLATION))}, got "
-            f"{scheme.boundary_interpolation!r}."
-        )
+    `boundary_interpolation` or `crease_method`."""
+    for name, allowed in (("boundary_interpolation", BOUNDARY_INTERPOLATION),
+                          ("crease_method", CREASE_METHODS)):  # fmt: skip
+        if getattr(scheme, name) not in allowed:
+            raise ValueError(
+                f"`{type(scheme).__name__}({name}=...)` must be "
+                f"{' or '.join(map(repr, allowed))}, got {getattr(scheme, name)!r}."
+            )

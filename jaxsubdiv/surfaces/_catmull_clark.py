@@ -103,6 +103,11 @@ class CatmullClark(AbstractSurfaceScheme):
     - `boundary_interpolation`: what a boundary vertex in a single face does, by
       OpenSubdiv's names: `"edge_and_corner"` (default) keeps it as a corner;
       `"edge_only"` gives it the boundary curve's rule, like any boundary vertex.
+    - `crease_method`: how semi-sharp creases (`Mesh(..., crease_sharpness=...)`)
+      decay, by OpenSubdiv's names: `"uniform"` (default) lowers every sharpness by 1
+      per level; `"chaikin"` gives each half of a crease edge 3/4 of its sharpness
+      plus 1/4 of the mean of the other semi-sharp edges at its end, less 1, so that
+      sharpness varying along a crease varies smoothly.
 
     The usual scheme for quad-dominant meshes (film, CAD). Refined vertex order: the
     $V$ vertex points, then one edge point per edge (lexicographic order of the
@@ -116,6 +121,7 @@ class CatmullClark(AbstractSurfaceScheme):
     boundary_interpolation: Literal["edge_and_corner", "edge_only"] = eqx.field(
         static=True, default="edge_and_corner"
     )
+    crease_method: Literal["uniform", "chaikin"] = eqx.field(static=True, default="uniform")
 
     bytes_per_half_edge: ClassVar[int] = 400  # measured 360-440
 

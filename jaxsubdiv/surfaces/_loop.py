@@ -86,6 +86,11 @@ class Loop(AbstractSurfaceScheme):
       OpenSubdiv's names: `"edge_and_corner"` (default) keeps it as a corner;
       `"edge_only"` gives it the boundary curve's rule, like any boundary vertex (as
       trimesh's Loop does).
+    - `crease_method`: how semi-sharp creases (`Mesh(..., crease_sharpness=...)`)
+      decay, by OpenSubdiv's names: `"uniform"` (default) lowers every sharpness by 1
+      per level; `"chaikin"` gives each half of a crease edge 3/4 of its sharpness
+      plus 1/4 of the mean of the other semi-sharp edges at its end, less 1, so that
+      sharpness varying along a crease varies smoothly.
 
     Use it for triangle meshes; for quads or mixed polygons use
     [`jaxsubdiv.surfaces.CatmullClark`][].
@@ -101,6 +106,7 @@ class Loop(AbstractSurfaceScheme):
     boundary_interpolation: Literal["edge_and_corner", "edge_only"] = eqx.field(
         static=True, default="edge_and_corner"
     )
+    crease_method: Literal["uniform", "chaikin"] = eqx.field(static=True, default="uniform")
 
     bytes_per_half_edge: ClassVar[int] = 200  # measured 120-180
 

@@ -10,7 +10,8 @@ from .._misc import as_float_array, is_traced
 
 
 class StaticArray:
-    """A read-only numpy integer array that is hashable, so it can be a static field.
+    """A read-only numpy array (int64 unless `dtype` says otherwise) that is hashable,
+    so it can be a static field.
 
     `jax.jit` and `eqx.filter_jit` hash static fields on every call; the hash is
     computed once from the bytes and cached. Equality compares contents.
@@ -18,8 +19,8 @@ class StaticArray:
 
     __slots__ = ("array", "_hash")
 
-    def __init__(self, array: np.ndarray):
-        array = np.array(array, dtype=np.int64, copy=True)
+    def __init__(self, array: np.ndarray, dtype=np.int64):
+        array = np.array(array, dtype=dtype, copy=True)
         array.setflags(write=False)
         self.array = array
         self._hash = hash((array.shape, array.tobytes()))
@@ -78,21 +79,66 @@ def as_faces(faces) -> np.ndarray:
     return array
 
 
-def as_pairs(values, name: str) -> np.ndarray:
+#: OpenSubdiv's infinite sharpness: a crease or corner of this sharpness or more never
+#: decays (`Sdc::Crease::SHARPNESS_INFINITE`).
+INFINITE_SHARPNESS = 10.0
+
+
+def as_sharpness(values, count: int, name: str) -> np.ndarray:
+    """`(count,)` float64 sharpness, `inf` where the tag is infinitely sharp: `None`
+    means all infinite; values of 10 or more (OpenSubdiv's infinite) become `inf`."""
     if values is None:
-        return np.zeros((0, 2), np.int64)
-    array = np.asarray(values, dtype=np.int64)
+        return np.full(count, np.inf)
+    array = np.asarray(values)
+    if array.ndim == 0:
+        array = np.full(count, array)
+    if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):
+        raise TypeError(f"`{name}` must be real numbers, got dtype {array.dtype}.")
+    array = array.astype(np.float64).reshape(-1)
+    if len(array) != count:
+        raise ValueError(f"`{name}` must have one value per tag ({count}), got {len(array)}.")
+    if np.any(np.isnan(array) | (array <= 0)):
+        bad = array[np.isnan(array) | (array <= 0)][0]
+        raise ValueError(
+            f"`{name}` must be > 0 (a tag of sharpness 0 is no tag: leave it out), got {bad}."
+        )
+    return np.where(array >= INFINITE_SHARPNESS, np.inf, array)
+
+
+def _unique_tags(keys: np.ndarray, sharpness: np.ndarray, name: str, what):
+    """Sorted unique tags and their sharpness; a tag given twice must agree."""
+    if len(keys) == 0:
+        return keys, sharpness
+    order = np.lexsort(keys.T[::-1]) if keys.ndim == 2 else np.argsort(keys, kind="stable")
+    keys, sharpness = keys[order], sharpness[order]
+    same = np.all(keys[1:] == keys[:-1], axis=-1) if keys.ndim == 2 else keys[1:] == keys[:-1]
+    clash = same & (sharpness[1:] != sharpness[:-1])
+    if np.any(clash):
+        i = int(np.argmax(clash))
+        raise ValueError(
+            f"`{name}` tags {what(keys[i])} twice with different sharpness "
+            f"({sharpness[i]} and {sharpness[i + 1]})."
+        )
+    keep = np.concatenate([[True], ~same])
+    return keys[keep], sharpness[keep]
+
+
+def as_pairs(values, name: str, sharpness=None, sharpness_name: str = "") -> tuple[np.ndarray, np.ndarray]:
+    """Sorted unique `(C, 2)` vertex pairs and their sharpness."""
+    array = np.zeros((0, 2), np.int64) if values is None else np.asarray(values, dtype=np.int64)
     if array.size == 0:
-        return np.zeros((0, 2), np.int64)
+        array = np.zeros((0, 2), np.int64)
     if array.ndim != 2 or array.shape[1] != 2:
         raise ValueError(f"`{name}` must be a list of (vertex, vertex) pairs, got shape {array.shape}.")
-    return np.unique(np.sort(array, axis=1), axis=0)
+    values = as_sharpness(sharpness, len(array), sharpness_name)
+    return _unique_tags(np.sort(array, axis=1), values, name, lambda k: f"the edge {k.tolist()}")
 
 
-def as_indices(values, name: str) -> np.ndarray:
-    if values is None:
-        return np.zeros((0,), np.int64)
-    return np.unique(np.asarray(values, dtype=np.int64).reshape(-1))
+def as_indices(values, name: str, sharpness=None, sharpness_name: str = "") -> tuple[np.ndarray, np.ndarray]:
+    """Sorted unique vertex indices and their sharpness."""
+    array = np.zeros(0, np.int64) if values is None else np.asarray(values, dtype=np.int64).reshape(-1)
+    values = as_sharpness(sharpness, len(array), sharpness_name)
+    return _unique_tags(array, values, name, lambda k: f"the vertex {int(k)}")
 
 
 class Mesh(eqx.Module):
@@ -108,11 +154,19 @@ class Mesh(eqx.Module):
     array, `K` the largest face size, with smaller faces padded by `-1` at the end
     (there is no padding for pure triangle or quad meshes).
 
-    Tags (Hoppe et al. 1994; DeRose, Kass and Truong 1998, infinitely sharp only):
+    Tags (Hoppe et al. 1994; semi-sharp ones after DeRose, Kass and Truong 1998, with
+    OpenSubdiv's rules):
 
     - `creases`: `(C, 2)` vertex pairs: edges refined with the cubic B-spline curve
       rules, so the surface keeps a sharp feature along them.
     - `corners`: vertex indices held fixed (interpolated) by refinement.
+    - `crease_sharpness`, `corner_sharpness`: how many levels a tag stays sharp
+      (OpenSubdiv's edge and vertex sharpness). `None` (the default), `inf` or any
+      value of 10 or more is infinitely sharp; a value in (0, 10) is *semi-sharp*: the
+      sharp rules apply while the sharpness lasts, it decays by one per level (or by
+      OpenSubdiv's Chaikin rule, see `crease_method` of `Loop` and `CatmullClark`),
+      and a fractional remainder blends the sharp and smooth rules. Semi-sharp tags
+      are for Loop and Catmull-Clark; Doo-Sabin takes infinitely sharp tags only.
 
     Vertices that no face uses are allowed: every scheme keeps them, unchanged.
 
@@ -126,6 +180,10 @@ class Mesh(eqx.Module):
     _faces: StaticArray = eqx.field(static=True)
     _creases: StaticArray = eqx.field(static=True)
     _corners: StaticArray = eqx.field(static=True)
+    # Sharpness is topology to subdivision (it selects the rules, as in OpenSubdiv's
+    # topology descriptor), so it is static like the tags, not traced.
+    _crease_sharpness: StaticArray = eqx.field(static=True)
+    _corner_sharpness: StaticArray = eqx.field(static=True)
 
     def __init__(
         self,
@@ -134,6 +192,8 @@ class Mesh(eqx.Module):
         *,
         creases: Int[ArrayLike, "C 2"] | None = None,
         corners: Int[ArrayLike, " K"] | None = None,
+        crease_sharpness: Float[ArrayLike, " C"] | float | None = None,
+        corner_sharpness: Float[ArrayLike, " K"] | float | None = None,
     ):
         """**Arguments:**
 
@@ -144,6 +204,9 @@ class Mesh(eqx.Module):
         - `creases`: optional `(C, 2)` vertex pairs tagged as infinitely sharp edges.
           Keyword only.
         - `corners`: optional vertex indices tagged as corners. Keyword only.
+        - `crease_sharpness`, `corner_sharpness`: optional sharpness of each tag, one
+          number for all, or `None` for infinitely sharp (see above). Values must be
+          > 0. Keyword only.
         """
         vertices = as_float_array(vertices, "vertices")
         if vertices.ndim != 2:
@@ -154,10 +217,14 @@ class Mesh(eqx.Module):
                 f"`faces` refers to vertex {int(faces.max())}, but there are only "
                 f"{vertices.shape[0]} vertices."
             )
+        creases, crease_sharpness = as_pairs(creases, "creases", crease_sharpness, "crease_sharpness")
+        corners, corner_sharpness = as_indices(corners, "corners", corner_sharpness, "corner_sharpness")
         self.vertices = vertices
         self._faces = StaticArray(faces)
-        self._creases = StaticArray(as_pairs(creases, "creases"))
-        self._corners = StaticArray(as_indices(corners, "corners"))
+        self._creases = StaticArray(creases)
+        self._corners = StaticArray(corners)
+        self._crease_sharpness = StaticArray(crease_sharpness, np.float64)
+        self._corner_sharpness = StaticArray(corner_sharpness, np.float64)
 
     @property
     def faces(self) -> np.ndarray:
@@ -173,6 +240,21 @@ class Mesh(eqx.Module):
     def corners(self) -> np.ndarray:
         """Tagged corner vertices (read-only)."""
         return self._corners.array
+
+    @property
+    def crease_sharpness(self) -> np.ndarray:
+        """`(C,)` sharpness of each crease in `creases` (`inf`: infinitely sharp)."""
+        return self._crease_sharpness.array
+
+    @property
+    def corner_sharpness(self) -> np.ndarray:
+        """Sharpness of each corner in `corners` (`inf`: infinitely sharp)."""
+        return self._corner_sharpness.array
+
+    @property
+    def semi_sharp(self) -> bool:
+        """Whether any tag is semi-sharp (finite sharpness)."""
+        return bool(np.any(np.isfinite(self.crease_sharpness)) or np.any(np.isfinite(self.corner_sharpness)))
 
     @property
     def num_vertices(self) -> int:

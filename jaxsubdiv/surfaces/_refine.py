@@ -1,5 +1,6 @@
 """Refiners and limit evaluators: topology once on the host, a stencil kernel per call."""
 
+import dataclasses
 import math
 
 import equinox as eqx
@@ -17,6 +18,7 @@ from .._misc import (
 )
 from ._base import APPROXIMATE, CORNER_TANGENTS, AbstractSurfaceScheme, Counts
 from ._mesh import Mesh
+from ._sharpness import semi_sharp_level
 from ._stencil import Sparse, StencilTable
 from ._topology import build_topology
 
@@ -32,6 +34,26 @@ def _check(mesh, scheme) -> None:
             "`scheme` must be a surface scheme: `Loop()`, `CatmullClark()` or "
             f"`DooSabin()`; got {type(scheme).__name__}."
         )
+    if mesh.semi_sharp and not hasattr(scheme, "crease_method"):
+        raise ValueError(
+            f"The mesh has semi-sharp tags (a `crease_sharpness` or `corner_sharpness` "
+            f"below 10), which {type(scheme).__name__}() does not take: OpenSubdiv's "
+            "semi-sharp rules are defined for `Loop()` and `CatmullClark()`. Use one of "
+            "those, or leave the sharpness out (infinitely sharp tags)."
+        )
+
+
+def _level(scheme, faces, count, creases, corners, crease_sharpness, corner_sharpness, topo=None):
+    """One level: the scheme's own for infinitely sharp tags, else the semi-sharp
+    blend; returns the `Level` with the refined tags' sharpness filled in."""
+    if np.any(np.isfinite(crease_sharpness)) or np.any(np.isfinite(corner_sharpness)):
+        return semi_sharp_level(scheme, faces, count, creases, crease_sharpness, corners,
+                                corner_sharpness)  # fmt: skip
+    if topo is None:
+        topo = build_topology(faces, count, creases, corners, scheme.boundary_corners)
+    step = scheme.level(topo, creases, corners)
+    return dataclasses.replace(step, crease_sharpness=np.full(len(step.creases), np.inf),
+                               corner_sharpness=np.full(len(step.corners), np.inf))  # fmt: skip
 
 
 #: The most levels a `Refiner` takes: each level multiplies the half-edges by four, so 30
@@ -133,22 +155,24 @@ class Refiner(eqx.Module):
         memory_budget = checked_budget(memory_budget)
         count = mesh.num_vertices
         faces, creases, corners = mesh.faces, mesh.creases, mesh.corners
+        sharpness = mesh.crease_sharpness, mesh.corner_sharpness
         tables = []
         topo = build_topology(faces, count, creases, corners, scheme.boundary_corners)
         _check_surface_memory(topo, scheme, levels, memory_budget)
         for level in range(levels):
-            if level:
-                topo = build_topology(faces, count, creases, corners, scheme.boundary_corners)
-            step = scheme.level(topo, creases, corners)
+            step = _level(scheme, faces, count, creases, corners, *sharpness,
+                          topo=None if level else topo)  # fmt: skip
             tables.append(StencilTable.from_sparse(step.stencil))
             count = step.stencil.shape[0]
             faces, creases, corners = step.faces, step.creases, step.corners
+            sharpness = step.crease_sharpness, step.corner_sharpness
         self.tables = tuple(tables)
         self.scheme = scheme
         self.levels = levels
         self.num_base_vertices = mesh.num_vertices
         self.memory_budget = memory_budget
-        self._template = Mesh(np.zeros((count, 0)), faces, creases=creases, corners=corners)
+        self._template = Mesh(np.zeros((count, 0)), faces, creases=creases, corners=corners,
+                              crease_sharpness=sharpness[0], corner_sharpness=sharpness[1])
 
     def __call__(self, vertices: Float[ArrayLike, "*batch V C"]) -> Float[Array, "*batch N C"]:
         """The refined vertex data, `(..., N, C)` for `(..., V, C)` base data."""
@@ -173,12 +197,15 @@ class Refiner(eqx.Module):
 
     def composite(self) -> StencilTable:
         """One table from the base vertices straight to the refined ones (host-built)."""
+        return StencilTable.from_sparse(self.composite_sparse())
+
+    def composite_sparse(self) -> Sparse:
         total = Sparse.identity(self.num_base_vertices)
         for table in self.tables:
             step = Sparse(*(np.asarray(a) for a in (table.rows, table.cols, table.weights)),
                           (table.num_rows, table.num_cols))  # fmt: skip
             total = step @ total
-        return StencilTable.from_sparse(total)
+        return total
 
     def mesh(self, vertices: Float[ArrayLike, "V C"]) -> Mesh:
         """The refined [`jaxsubdiv.surfaces.Mesh`][] for base vertex data `vertices`."""
@@ -199,6 +226,15 @@ class Refiner(eqx.Module):
     @property
     def corners(self) -> np.ndarray:
         return self._template.corners
+
+    @property
+    def crease_sharpness(self) -> np.ndarray:
+        """Sharpness of the refined mesh's creases (decayed; `inf`: infinitely sharp)."""
+        return self._template.crease_sharpness
+
+    @property
+    def corner_sharpness(self) -> np.ndarray:
+        return self._template.corner_sharpness
 
     @property
     def num_vertices(self) -> int:
@@ -234,6 +270,21 @@ def refine_mesh(
     The refined `Mesh`, with tagged creases and corners carried over.
     """
     return Refiner(mesh, scheme, levels, memory_budget=memory_budget).mesh(mesh.vertices)
+
+
+def _semi_sharp_limit(mesh: Mesh, scheme: AbstractSurfaceScheme):
+    """Limit stencils of a mesh with semi-sharp tags: refine until every finite
+    sharpness has decayed (at most 10 levels, checked against the default memory
+    budget), take the limit stencils there and compose them with the refinement
+    (vertex `v` keeps its index through primal levels), as OpenSubdiv evaluates the
+    limit once the sharpness is gone."""
+    finite = np.concatenate([mesh.crease_sharpness, mesh.corner_sharpness])
+    levels = int(np.ceil(finite[np.isfinite(finite)].max()))
+    refiner = Refiner(mesh, scheme, levels)
+    fine = build_topology(refiner.faces, refiner.num_vertices, refiner.creases,
+                          refiner.corners, scheme.boundary_corners)  # fmt: skip
+    stencils = scheme.limit(fine, refiner.creases, refiner.corners)
+    return stencils.compose(np.arange(mesh.num_vertices), refiner.composite_sparse())
 
 
 def _safe_normalize(x: Float[Array, "... 3"]) -> Float[Array, "... 3"]:
@@ -301,8 +352,11 @@ class Limit(eqx.Module):
         - `scheme`: `Loop()` or `CatmullClark()`.
         """
         _check(mesh, scheme)
-        topo = _topology(mesh, scheme)
-        stencils = scheme.limit(topo, mesh.creases, mesh.corners)
+        if mesh.semi_sharp:
+            stencils = _semi_sharp_limit(mesh, scheme)
+        else:
+            topo = _topology(mesh, scheme)
+            stencils = scheme.limit(topo, mesh.creases, mesh.corners)
         self.position = StencilTable.from_sparse(stencils.position)
         self.tangent_u = StencilTable.from_sparse(stencils.tangent_u)
         self.tangent_v = StencilTable.from_sparse(stencils.tangent_v)

@@ -58,6 +58,10 @@ class Topology:
     vertex_type: np.ndarray  # (V,) SMOOTH / CREASE / CORNER
     valence: np.ndarray  # (V,) number of incident edges
     boundary_vertex: np.ndarray  # (V,) bool
+    # (E, 2) bool or None: whether the crease vertex rule counts each edge as sharp at
+    # its end `edges[e, 0]` and at `edges[e, 1]`; None: at both ends iff `sharp_edge`.
+    # Semi-sharp creases under OpenSubdiv's Chaikin method can differ at the two ends.
+    crease_end: np.ndarray | None = None
 
     @property
     def num_faces(self) -> int:
