@@ -98,6 +98,11 @@ class CatmullClark(AbstractSurfaceScheme):
     on three or more sharp edges) are kept. A vertex on one crease (a *dart*) uses the
     smooth rule.
 
+    Tags may be semi-sharp (`Mesh(..., crease_sharpness=..., corner_sharpness=...)`):
+    the sharp rules last as many levels as the sharpness, and a fractional remainder
+    blends them with the smooth ones, by OpenSubdiv's rules (DeRose, Kass and Truong
+    1998; see `crease_method` and `docs/surfaces.md`).
+
     **Arguments:**
 
     - `boundary_interpolation`: what a boundary vertex in a single face does, by
