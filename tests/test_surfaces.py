@@ -916,6 +916,127 @@ def test_semi_sharp_errors():
         jss.Loop(crease_method="sharp")
 
 
+# ------------------------------------------- face-varying data (#19)
+
+
+def cube_cross_uvs():
+    """The cube with its faces unwrapped as six separate squares (every edge a seam):
+    value 4 * f + j at corner j of face f, at that square's corners."""
+    v, f = cube()
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    uvs = np.concatenate([square + [2 * i, 0] for i in range(6)])
+    return v, f, np.arange(24).reshape(6, 4), uvs
+
+
+def test_face_varying_without_seams_equals_vertex_refinement():
+    """A channel that indexes like the mesh (no seam) refines exactly like the vertex
+    data under the matching rules; its faces are the refined mesh's faces."""
+    for make, scheme in [(cube, jss.CatmullClark()), (lambda: grid(3, 2), jss.CatmullClark()),
+                         (icosahedron, jss.Loop()), (lambda: grid(3, 2, triangles=True), jss.Loop())]:  # fmt: skip
+        v, f = make()
+        mesh = jss.Mesh(v, f, creases=[[0, 1]], crease_sharpness=1.5)
+        for option, boundary in [("none", "edge_only"), ("corners_only", "edge_and_corner")]:
+            rules = type(scheme)(boundary_interpolation=boundary)
+            refiner = jss.Refiner(mesh, rules, 2)
+            channel = jss.FaceVarying(mesh, mesh.faces, rules, 2, linear_interpolation=option)
+            np.testing.assert_array_equal(channel.faces, refiner.faces)
+            np.testing.assert_allclose(channel(v), refiner(v), rtol=0, atol=1e-14)
+
+
+def test_face_varying_all_is_bilinear():
+    """"all" (OpenSubdiv's default): every value and edge sharp, so one level gives the
+    corners, edge midpoints and face centroids of each face's own values."""
+    v, f, indices, uvs = cube_cross_uvs()
+    channel = jss.FaceVarying(jss.Mesh(v, f), indices, jss.CatmullClark(), 1)
+    out = np.asarray(channel(uvs))
+    # Refined face 4 * k + j is the quad of base face k at its corner j:
+    # (corner j, midpoint of edge j, centroid, midpoint of edge j - 1).
+    for k in range(6):
+        square = uvs[indices[k]]
+        for j in range(4):
+            want = [square[j], (square[j] + square[(j + 1) % 4]) / 2, square.mean(0),
+                    (square[j] + square[j - 1]) / 2]  # fmt: skip
+            np.testing.assert_allclose(out[channel.faces[4 * k + j]], want, rtol=0, atol=1e-15)
+
+
+def test_face_varying_values_do_not_cross_seams():
+    """With every edge a seam, each square's refined values depend on its own four
+    values only (any option): moving one square changes no other square's values."""
+    v, f, indices, uvs = cube_cross_uvs()
+    mesh = jss.Mesh(v, f)
+    for option in ("none", "corners_only", "boundaries"):
+        channel = jss.FaceVarying(mesh, indices, jss.CatmullClark(), 2, linear_interpolation=option)
+        moved = uvs.copy()
+        moved[indices[2]] += [0.3, -0.2]
+        a, b = np.asarray(channel(uvs)), np.asarray(channel(moved))
+        faces = channel.faces.reshape(6, 16, 4)  # 16 refined quads per base face
+        changed = [k for k in range(6) if not np.allclose(a[faces[k]], b[faces[k]], atol=1e-14)]
+        assert changed == [2], (option, changed)
+
+
+BLENDER_UVS = pathlib.Path(__file__).parent / "data" / "blender_uvs.npz"
+# Blender's `uv_smooth` names and OpenSubdiv's (ours), as Blender maps them.
+UV_SMOOTH = {"NONE": "all", "PRESERVE_CORNERS": "corners_only",
+             "PRESERVE_CORNERS_AND_JUNCTIONS": "corners_plus1",
+             "PRESERVE_CORNERS_JUNCTIONS_AND_CONCAVE": "corners_plus2",
+             "PRESERVE_BOUNDARIES": "boundaries", "SMOOTH_ALL": "none"}  # fmt: skip
+
+
+@pytest.mark.parametrize("option", list(UV_SMOOTH))
+@pytest.mark.parametrize("case", ["a_cube_cross", "b_grid_islands"])
+def test_face_varying_matches_blender(case, option):
+    """Blender 5.0.1's modifier (OpenSubdiv) refining UVs with seams: a cube unwrapped as
+    a cross, and an open grid of three islands (a seam through the interior, a junction
+    of three islands, a concave island corner, seams ending on the boundary), every
+    `uv_smooth` option, levels 1 and 2 (`benchmarks/blender_uvs.py` made the file).
+    Blender numbers refined vertices its own way, so each refined face is matched by its
+    vertex positions and its corners' UVs compared; inputs are exact in float32."""
+    data = np.load(BLENDER_UVS)
+    mesh = jss.Mesh(data[f"{case}_vertices"], data[f"{case}_faces"])
+    uvs = data[f"{case}_uv_values"]
+    for level in (1, 2):
+        ours = jss.Refiner(mesh, jss.CatmullClark(), level)
+        channel = jss.FaceVarying(mesh, data[f"{case}_uv_indices"], jss.CatmullClark(), level,
+                                  linear_interpolation=UV_SMOOTH[option])  # fmt: skip
+        points = np.asarray(ours(mesh.vertices))
+        values = np.asarray(channel(uvs))
+        prefix = f"{case}_{option}_L{level}"
+        their_points = data[f"{prefix}_vertices"].astype(np.float64)
+        their_uvs = data[f"{prefix}_uvs"].astype(np.float64).reshape(-1, 4, 2)
+        # Our vertex -> Blender's vertex, by position (unique within float32 rounding).
+        d = np.linalg.norm(points[:, None] - their_points[None], axis=-1)
+        to_theirs = d.argmin(axis=1)
+        assert d.min(axis=1).max() < 1e-6
+        # Each refined face by its set of vertices; corners by vertex.
+        theirs = {frozenset(f.tolist()): (f.tolist(), u) for f, u in
+                  zip(data[f"{prefix}_faces"], their_uvs)}  # fmt: skip
+        assert len(theirs) == len(channel.faces) == len(ours.faces)
+        worst = 0.0
+        for face, corners in zip(ours.faces, channel.faces):
+            order, their = theirs[frozenset(to_theirs[face].tolist())]
+            for vertex, value in zip(to_theirs[face], corners):
+                worst = max(worst, np.abs(values[value] - their[order.index(vertex)]).max())
+        assert worst < 1e-6, worst
+
+
+def test_face_varying_errors():
+    v, f, indices, uvs = cube_cross_uvs()
+    mesh = jss.Mesh(v, f)
+    with pytest.raises(ValueError, match="`indices` must have the shape of `mesh.faces`"):
+        jss.FaceVarying(mesh, indices[:5], jss.CatmullClark())
+    with pytest.raises(ValueError, match="without gaps \\(value 3 is unused\\)"):
+        jss.FaceVarying(mesh, np.where(indices == 3, 24, indices), jss.CatmullClark())
+    with pytest.raises(ValueError, match="linear_interpolation"):
+        jss.FaceVarying(mesh, indices, jss.CatmullClark(), linear_interpolation="smooth")
+    with pytest.raises(ValueError, match="`Loop\\(\\)` or `CatmullClark\\(\\)`"):
+        jss.FaceVarying(mesh, indices, jss.DooSabin())
+    with pytest.raises(ValueError, match="`indices` as a mesh of face-varying values"):
+        bowtie = indices.copy()
+        bowtie[1, 0] = 0  # value 0 at corners of opposite faces of the cube
+        jss.FaceVarying(mesh, np.unique(bowtie, return_inverse=True)[1].reshape(6, 4),
+                        jss.CatmullClark())  # fmt: skip
+
+
 # ------------------------------------------- boundary interpolation: edge only
 
 

@@ -176,24 +176,8 @@ class Refiner(eqx.Module):
 
     def __call__(self, vertices: Float[ArrayLike, "*batch V C"]) -> Float[Array, "*batch N C"]:
         """The refined vertex data, `(..., N, C)` for `(..., V, C)` base data."""
-        vertices = as_float_array(vertices, "vertices")
-        if vertices.ndim < 2 or vertices.shape[-2] != self.num_base_vertices:
-            raise ValueError(
-                f"`vertices` must have shape (..., {self.num_base_vertices}, channels) for "
-                f"this mesh, got {vertices.shape}."
-            )
-        batch = math.prod(vertices.shape[:-2])
-        size = batch * self.num_vertices * vertices.shape[-1] * vertices.dtype.itemsize
-        if size > self.memory_budget:
-            raise ValueError(
-                f"Refiner would return {batch:,} x {self.num_vertices:,} vertices "
-                f"x {vertices.shape[-1]} channels = {format_bytes(size)}, above "
-                f"memory_budget={self.memory_budget:,} bytes. Refine fewer items at a time, "
-                "or build the Refiner with a larger `memory_budget`."
-            )
-        for table in self.tables:  # `levels` is static: a fixed chain of kernels
-            vertices = table(vertices)
-        return vertices
+        return apply_tables(self.tables, vertices, self.num_base_vertices, self.num_vertices,
+                            self.memory_budget, "Refiner", "vertices")  # fmt: skip
 
     def composite(self) -> StencilTable:
         """One table from the base vertices straight to the refined ones (host-built)."""
@@ -240,6 +224,28 @@ class Refiner(eqx.Module):
     def num_vertices(self) -> int:
         """Number of refined vertices."""
         return self._template.num_vertices
+
+
+def apply_tables(tables, data, num_base: int, num_out: int, budget: float, who: str, name: str):
+    """Check `(..., num_base, C)` data and the output's size against `budget`, then apply
+    the per-level tables in turn (a fixed chain of kernels: the count is static)."""
+    data = as_float_array(data, name)
+    if data.ndim < 2 or data.shape[-2] != num_base:
+        raise ValueError(
+            f"`{name}` must have shape (..., {num_base}, channels) for this mesh, got "
+            f"{data.shape}."
+        )
+    batch = math.prod(data.shape[:-2])
+    size = batch * num_out * data.shape[-1] * data.dtype.itemsize
+    if size > budget:
+        raise ValueError(
+            f"{who} would return {batch:,} x {num_out:,} {name} x {data.shape[-1]} channels "
+            f"= {format_bytes(size)}, above memory_budget={budget:,} bytes. Refine fewer "
+            f"items at a time, or build the {who} with a larger `memory_budget`."
+        )
+    for table in tables:
+        data = table(data)
+    return data
 
 
 def refine_mesh(
