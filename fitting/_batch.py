@@ -8,12 +8,14 @@ items one after another (`lax.map` of `_core.fit_one`).
 
 import concurrent.futures
 import os
+import warnings
 from typing import Literal
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array
 
 import jaxsubdiv as js
 from jaxsubdiv.validation import (
@@ -204,10 +206,14 @@ def fit_batch(
     step together: see `_batched`). On one CPU device (JAX's default on a CPU), the
     batch is instead split into `threads` shares fitted concurrently, one per core.
     One item that
-    fails (non-finite samples, no convergence) does not spoil the others: see
-    `result.converged[i]` and `result.message[i]`. Items that are invalid as input (wrong
-    shape, all samples equal, an open-looking outline with `boundary="closed"`) raise a
-    `ValueError` naming the item before anything is fitted.
+    fails does not spoil the others: see `result.converged[i]` and `result.message[i]`.
+    Items whose samples are not finite get the status `nonfinite_input`; items that are
+    not valid outlines for the settings (a wrong shape such as a 1-D array, all samples
+    equal, fewer samples than unknowns, an open-looking outline with
+    `boundary="closed"`) get `invalid_input`, with one warning that says why
+    (`on_failure="warn"`), or raise that `ValueError` before anything is fitted
+    (`on_failure="raise"`). Neither is fitted, and their numbers are NaN. Settings that
+    are wrong for every item, and a batch with no valid item, raise.
 
     **Arguments:**
 
@@ -223,8 +229,7 @@ def fit_batch(
     - `progress`: one line on stderr for the whole batch, counting outlines done.
     - `memory_budget`: as for `fit`, checked per outline (one outline is fitted at a
       time in each thread or device, so the batch needs up to that many times it).
-    - others: as for [`fitting.fit`][]. Items whose samples are not finite are not
-      fitted: their status is `nonfinite_input` and their numbers are NaN.
+    - others: as for [`fitting.fit`][].
 
     **Returns:** one [`fitting.FitResult`][] whose array fields have a leading batch axis
     (for a ragged list, `curve` and the control points have the common shapes).
@@ -261,25 +266,38 @@ def fit_batch(
     devices = jax.devices() if devices is None else list(devices)
     if not devices:
         raise ValueError("`fit_batch(devices=...)` is empty; pass None for all devices.")
-    prepared, bad = [], []
-    for i, (t, w) in enumerate(zip(items, weights)):
-        # The stand-in needs a well-formed item: a wrong shape is its own error (from
-        # `prepare`, naming the item), whatever its values.
-        well_formed = t.ndim == 2 and t.shape[-1] >= 2
-        if well_formed and not is_traced(t) and not np.all(np.isfinite(np.asarray(t))):
-            bad.append(i)
-            # A stand-in that passes validation, so the batch keeps its shape; the item's
-            # outputs are replaced by NaN and its status by nonfinite_input below.
-            angle = 2 * np.pi * np.arange(t.shape[0]) / t.shape[0]
-            circle = np.zeros(t.shape)
-            circle[:, 0], circle[:, 1] = np.cos(angle), np.sin(angle)
-            t, w = jnp.asarray(circle, t.dtype), None
-        t, w, n, _, names, values = prepare(
+    def check(i, t, w):
+        return prepare(
             t, scheme, n_control, levels=levels, boundary=boundary, fit_params=fit_params,
             weights=w, ordered=ordered, smoothing=smoothing, caller=f"fit_batch(targets[{i}])",
             memory_budget=memory_budget, profile=profile, pin_ends=pin_ends,
         )
+
+    dimension = dims[0] if dims else 2
+    prepared, bad, invalid = [], [], {}
+    for i, (t, w) in enumerate(zip(items, weights)):
+        # Items that cannot be fitted are replaced by a stand-in that passes validation,
+        # so the batch keeps its shape; their outputs become NaN and their status
+        # nonfinite_input or invalid_input below, and the other items are unaffected.
+        well_formed = t.ndim == 2 and t.shape[-1] >= 2
+        if well_formed and not is_traced(t) and not np.all(np.isfinite(np.asarray(t))):
+            bad.append(i)
+            t, w = _stand_in(t.shape[0], dimension, t.dtype), None
+        try:
+            t, w, n, _, names, values = check(i, t, w)
+        except ValueError as error:
+            if on_failure == "raise" or is_traced(t):
+                raise
+            try:  # a wrong setting fails every item, the stand-in too: raise it
+                t, w, n, _, names, values = check(i, _stand_in(
+                    max(32, (dimension + 1) * static_int(n_control, "n_control", minimum=1)),
+                    dimension, t.dtype), None)  # fmt: skip
+            except ValueError:
+                raise error from None
+            invalid[i] = str(error)
         prepared.append((t, w))
+    if len(invalid) == len(items):
+        raise ValueError(f"fit_batch: no item can be fitted; item 0: {invalid[0]}")
     # One sample-count bucket for the whole batch: every item padded to it.
     size = bucket(max(t.shape[0] for t, _ in prepared))
     hermite = uses_tangents(scheme, names, boundary)
@@ -308,11 +326,31 @@ def fit_batch(
     if progress:
         jax.block_until_ready(result)
         _progress.finish()
-    if bad:
-        index = jnp.array(bad)
-        code = status_code(FitStatus.nonfinite_input)
-        blank = lambda x: x.at[index].set(jnp.nan) if eqx.is_inexact_array(x) else x
-        result = jax.tree.map(blank, result)
-        result = eqx.tree_at(lambda r: r.status, result, result.status.at[index].set(code))
+    for items_, status in ((bad, FitStatus.nonfinite_input), (list(invalid), FitStatus.invalid_input)):
+        if items_:
+            index = jnp.array(items_)
+            blank = lambda x: x.at[index].set(jnp.nan) if eqx.is_inexact_array(x) else x
+            result = jax.tree.map(blank, result)
+            result = eqx.tree_at(lambda r: r.status, result,
+                                 result.status.at[index].set(status_code(status)))  # fmt: skip
+    if invalid and on_failure == "warn":
+        reasons = "; ".join(f"item {i}: {why}" for i, why in list(invalid.items())[:3])
+        more = f" (and {len(invalid) - 3} more)" if len(invalid) > 3 else ""
+        warnings.warn(
+            f"fit_batch: {len(invalid)} of {len(items)} items are not valid outlines for "
+            f"these settings and were not fitted (status invalid_input, numbers NaN): "
+            f"{reasons}{more}",
+            RuntimeWarning,
+            stacklevel=2,
+        )
     report(result, on_failure, caller="fit_batch")
     return result
+
+
+def _stand_in(samples: int, dimension: int, dtype) -> Array:
+    """A circle of `samples` points in the first two of `dimension` coordinates: a valid
+    outline in the place of an item that is not fitted."""
+    angle = 2 * np.pi * np.arange(samples) / samples
+    circle = np.zeros((samples, dimension))
+    circle[:, 0], circle[:, 1] = np.cos(angle), np.sin(angle)
+    return jnp.asarray(circle, dtype)

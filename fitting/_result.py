@@ -18,7 +18,7 @@ with warnings.catch_warnings():
     class FitStatus(optx.RESULTS):
         """Why a fit stopped: optimistix's results (`optimistix.RESULTS`, whose entries
         and numbers it keeps: `FitStatus.promote(solution.result)`), with our message for
-        `nonfinite_input`.
+        `nonfinite_input`, and `invalid_input` (after optimistix's entries).
 
         `FitResult.status` holds an entry's number, the index of its name in
         [`fitting.STATUSES`][]: 0 (`successful`) when the solver met its tolerance.
@@ -27,6 +27,11 @@ with warnings.catch_warnings():
         # Set by `fit_batch` for items it does not fit (lineax's own text for this entry
         # blames a bug upstream of a linear solver, which is not what happened).
         nonfinite_input = "the target has NaN or infinite values; it was not fitted."
+        # Set by `fit_batch` for items that are not valid outlines for the settings.
+        invalid_input = (
+            "the target is not a valid outline for these settings (the warning says why); "
+            "it was not fitted."
+        )
 
 
 #: The names of the [`fitting.FitStatus`][] entries, by number: `FitResult.status` is
@@ -127,7 +132,9 @@ def report(result: FitResult, on_failure: str, caller: str = "fit") -> None:
     """Raise or warn, on the host, for items that did not converge."""
     if on_failure == "ignore" or is_traced(result.status):
         return
-    failed = np.nonzero(np.atleast_1d(~np.asarray(result.converged)))[0]
+    # Items not fitted as invalid input have had their own warning, with the reasons.
+    invalid = np.asarray(result.status) == int(status_code(FitStatus.invalid_input))
+    failed = np.nonzero(np.atleast_1d(~np.asarray(result.converged) & ~invalid))[0]
     if len(failed) == 0:
         return
     messages = result.message if isinstance(result.message, list) else [result.message]

@@ -320,6 +320,32 @@ def test_batch_equals_loop_and_nan_item_fails_alone():
         np.testing.assert_allclose(batch.rms[i], single.rms, rtol=1e-6)
 
 
+INVALID_ITEMS = [
+    ("one_dimensional", np.linspace(0.0, 1.0, 50), "must have shape (m, d)"),
+    ("all_equal", np.ones((80, 2)), "all samples are the same point"),
+    ("too_few", blob(120, seed=9)[:5], "give at least as many samples as unknowns"),
+    ("open_looking", blob(120, seed=9)[:70], "looks like an open curve"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("bad, words", [c[1:] for c in INVALID_ITEMS], ids=[c[0] for c in INVALID_ITEMS])
+def test_invalid_batch_item_fails_alone(bad, words):
+    """#16: an item that is not a valid outline gets the status invalid_input and NaN
+    numbers, with one warning that says why; the other items are what `fit` gives them
+    alone. With on_failure="raise" it is the ValueError, before anything is fitted."""
+    good = [blob(120, seed=s) for s in (1, 2)]
+    with pytest.warns(RuntimeWarning, match=r"1 of 3 items are not valid .* item 1: .*" + re.escape(words)):
+        batch = fitting.fit_batch([good[0], bad, good[1]], js.CubicBSpline(), 8, max_steps=400)
+    assert list(np.asarray(batch.converged)) == [True, False, True]
+    assert batch.message[1].startswith("invalid_input")
+    assert np.all(np.isnan(np.asarray(batch.control_points[1]))) and np.isnan(float(batch.rms[1]))
+    for i, target in zip((0, 2), good):
+        single = fitting.fit(target, js.CubicBSpline(), 8, max_steps=400)
+        np.testing.assert_allclose(batch.control_points[i], single.control_points, atol=1e-8)
+    with pytest.raises(ValueError, match=re.escape(words)):
+        fitting.fit_batch([good[0], bad, good[1]], js.CubicBSpline(), 8, on_failure="raise")
+
+
 def test_ragged_batch_equals_single_fits():
     # Converged tightly: the padded and unpadded programs round differently, and at the
     # default tol their iterations may stop at different points of a flat valley.
@@ -869,9 +895,13 @@ def test_bad_input_is_a_clear_error(change, error, words):
         (dict(devices=[]), "devices"),
         (dict(tol=0.0), "tol"),
         (dict(memory_budget=-1), r"`fit_batch\(memory_budget=...\)` must be a finite"),
-        # A 1-D item with a NaN (issue #18: an IndexError from the NaN item's stand-in).
-        (dict(targets=[blob(100), np.array([1.0, np.nan])]),
+        # A 1-D item with a NaN (issue #18: an IndexError from the NaN item's stand-in),
+        # with on_failure="raise"; by default it is an item's status (below).
+        (dict(targets=[blob(100), np.array([1.0, np.nan])], on_failure="raise"),
          r"`fit_batch\(targets\[1\]\)\(target=...\)` must have shape \(m, d\)"),
+        # A setting wrong for every item raises whatever on_failure says.
+        (dict(boundary="periodic"), "boundary"),
+        (dict(targets=[np.ones((50, 2)), np.ones((60, 2))]), "no item can be fitted"),
     ],
 )
 def test_bad_batch_input_is_a_clear_error(change, words):
