@@ -173,7 +173,10 @@ def build(verts, faces, edge_sharp, vert_sharp):
     return me, edges, creases, cvals, sharp, vsharp
 
 
-def subdivide(me, level):
+def evaluate(me, level, uv_smooth="PRESERVE_BOUNDARIES"):
+    """`(object, evaluated object, evaluated mesh)` of `me` under the Subdivision Surface
+    modifier at `level` (Catmull-Clark, creases used, no limit surface, edge-and-corner
+    boundaries); free them with `ev.to_mesh_clear()` and `bpy.data.objects.remove(ob)`."""
     ob = bpy.data.objects.new("obj", me.copy())
     bpy.context.scene.collection.objects.link(ob)
     mod = ob.modifiers.new("subsurf", "SUBSURF")
@@ -184,10 +187,14 @@ def subdivide(me, level):
     mod.use_limit_surface = False
     mod.boundary_smooth = "PRESERVE_CORNERS"
     mod.quality = 6
-    mod.uv_smooth = "PRESERVE_BOUNDARIES"
-    dg = bpy.context.evaluated_depsgraph_get()
-    ev = ob.evaluated_get(dg)
-    out = ev.to_mesh()
+    mod.uv_smooth = uv_smooth
+    assert mod.uv_smooth == uv_smooth
+    ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    return ob, ev, ev.to_mesh()
+
+
+def subdivide(me, level):
+    ob, ev, out = evaluate(me, level)
     n = len(out.vertices)
     pos = np.empty(3 * n, dtype=np.float32)
     out.vertices.foreach_get("co", pos)
@@ -206,6 +213,7 @@ def check_order(faces, edges, level, pos, out_faces):
     nv, ne, nf = int(np.max(faces)) + 1, len(edges), len(faces)
     k = 2 ** level - 1
     assert len(pos) == nv + ne * k + nf * k * k, "vertex count"
+    assert len(out_faces) == nf * 4 ** level, "face count"
     if level != 1:
         return
     edge_index = {tuple(sorted(map(int, e))): i for i, e in enumerate(edges)}

@@ -118,6 +118,10 @@ import bpy
 import numpy as np
 
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_creases import check_order, evaluate  # noqa: E402
+
+
 LEVELS = (1, 2)
 UV_CONNECT_LIMIT = 1e-4  # Blender's STD_UV_CONNECT_LIMIT
 # (uv_smooth identifier, OpenSubdiv FVarLinearInterpolation it maps to)
@@ -244,21 +248,7 @@ def build(verts, faces, uv, uv_idx):
 
 
 def subdivide(me, level, uv_smooth):
-    ob = bpy.data.objects.new("obj", me.copy())
-    bpy.context.scene.collection.objects.link(ob)
-    mod = ob.modifiers.new("subsurf", "SUBSURF")
-    mod.subdivision_type = "CATMULL_CLARK"
-    mod.levels = level
-    mod.render_levels = level
-    mod.use_creases = True
-    mod.use_limit_surface = False
-    mod.boundary_smooth = "PRESERVE_CORNERS"
-    mod.quality = 6
-    mod.uv_smooth = uv_smooth
-    assert mod.uv_smooth == uv_smooth
-    dg = bpy.context.evaluated_depsgraph_get()
-    ev = ob.evaluated_get(dg)
-    out = ev.to_mesh()
+    ob, ev, out = evaluate(me, level, uv_smooth)
     n, nl, nf = len(out.vertices), len(out.loops), len(out.polygons)
     pos = np.empty(3 * n, dtype=np.float32)
     out.vertices.foreach_get("co", pos)
@@ -279,26 +269,6 @@ def subdivide(me, level, uv_smooth):
     assert np.array_equal(loop_start, 4 * np.arange(nf, dtype=np.int32)), "loop layout"
     assert np.array_equal(loop_verts, faces.ravel()), "loop vertices"
     return pos.reshape(n, 3), faces, uvs.reshape(nl, 2), loop_start, loop_verts
-
-
-def check_order(faces, edges, level, pos, out_faces):
-    """Assert the vertex counts and, at level 1, the child quads (see blender_creases.py)."""
-    nv, ne, nf = int(np.max(faces)) + 1, len(edges), len(faces)
-    k = 2 ** level - 1
-    assert len(pos) == nv + ne * k + nf * k * k, "vertex count"
-    assert len(out_faces) == nf * 4 ** level, "face count"
-    if level != 1:
-        return
-    edge_index = {tuple(sorted(map(int, e))): i for i, e in enumerate(edges)}
-    child = 0
-    for f, face in enumerate(faces):
-        n = len(face)
-        for c in range(n):
-            nxt = nv + edge_index[tuple(sorted((face[c], face[(c + 1) % n])))]
-            prv = nv + edge_index[tuple(sorted((face[c - 1], face[c])))]
-            expected = np.roll([face[c], nxt, nv + ne + f, prv], c)
-            assert list(out_faces[child]) == list(expected), (f, c, out_faces[child], expected)
-            child += 1
 
 
 def bilinear_children(corner_uvs):
