@@ -837,6 +837,45 @@ def test_corner_sharpness():
     np.testing.assert_allclose(got[1:], smooth[1:], rtol=0, atol=1e-15)
 
 
+def test_chaikin_and_uniform_points_by_hand():
+    """Three semi-sharp edges at vertex 7 of a grid (0.2, 0.9, 4.0) and a fourth (4.0)
+    at vertex 8, one level, by OpenSubdiv's rules worked out by hand:
+
+    - vertex 7 is a corner (three sharp edges). Uniform: (6, 7) and (7, 8) decay, the
+      child is a dart (smooth rule), weight mean(0.2, 0.9) = 0.55. Chaikin: the halves
+      at 7 are 0.75 s + 0.25 mean(others) - 1: (6, 7) 0, (7, 8) 0.2, (7, 12) 2.1375, so
+      the child is a crease along 8 and 12, and only (6, 7) decays: weight 0.2;
+    - the point of edge (7, 8), sharpness 0.9 < 1: uniform blends 0.9 midpoint + 0.1
+      smooth point; under Chaikin both of its halves stay sharp (0.2 at 7, 0.675 at 8),
+      so it is the midpoint."""
+    v, f = grid(4, 4)
+    creases, sharpness = [[6, 7], [7, 8], [7, 12], [8, 9]], [0.2, 0.9, 4.0, 4.0]
+    smooth = refined(v, f, jss.CatmullClark(), 1)  # untagged: smooth rules everywhere
+    edge = 25 + jss.Mesh(v, f).edges().tolist().index([7, 8])
+    uniform = refined(v, f, jss.CatmullClark(), 1, creases=creases, crease_sharpness=sharpness)
+    np.testing.assert_allclose(uniform[7], 0.55 * v[7] + 0.45 * smooth[7], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(uniform[edge], 0.9 * (v[7] + v[8]) / 2 + 0.1 * smooth[edge],
+                               rtol=0, atol=1e-15)  # fmt: skip
+    chaikin = refined(v, f, jss.CatmullClark(crease_method="chaikin"), 1, creases=creases,
+                      crease_sharpness=sharpness)  # fmt: skip
+    crease = 0.75 * v[7] + 0.125 * (v[8] + v[12])
+    np.testing.assert_allclose(chaikin[7], 0.2 * v[7] + 0.8 * crease, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(chaikin[edge], (v[7] + v[8]) / 2, rtol=0, atol=1e-15)
+
+
+def test_limit_of_semi_sharp_tags_within_budget():
+    """The limit is taken after the sharpness decays, by refining the whole mesh: a
+    budget error in `Limit`'s terms when that is too much, and tags that change nothing
+    (a boundary edge, a corner that is one anyway) cost no refinement."""
+    v, f = cube()
+    with pytest.raises(ValueError, match="Limit: the largest semi-sharp tag of this mesh lasts 10 levels"):
+        jss.Limit(jss.Mesh(v, f, creases=[[0, 1]], crease_sharpness=9.99), jss.CatmullClark())
+    v, f = grid(4, 4)
+    idle = jss.Mesh(v, f, creases=[[0, 1]], crease_sharpness=9.99, corners=[0], corner_sharpness=9.5)
+    np.testing.assert_array_equal(jss.limit_positions(idle, jss.CatmullClark(), memory_budget=10**6),
+                                  jss.limit_positions(jss.Mesh(v, f), jss.CatmullClark()))
+
+
 def test_chaikin_sharpness_of_the_refined_creases():
     """OpenSubdiv's Chaikin method: the half of a crease edge at a vertex with other
     semi-sharp edges gets 3/4 of its sharpness plus 1/4 of the others' mean, less 1;

@@ -17,6 +17,8 @@ from .._misc import (
     static_int,
 )
 from ._base import APPROXIMATE, CORNER_TANGENTS, AbstractSurfaceScheme, Counts
+from ._catmull_clark import CatmullClark
+from ._loop import Loop
 from ._mesh import Mesh
 from ._sharpness import semi_sharp_level
 from ._stencil import Sparse, StencilTable
@@ -34,7 +36,7 @@ def _check(mesh, scheme) -> None:
             "`scheme` must be a surface scheme: `Loop()`, `CatmullClark()` or "
             f"`DooSabin()`; got {type(scheme).__name__}."
         )
-    if mesh.semi_sharp and not hasattr(scheme, "crease_method"):
+    if mesh.semi_sharp and not isinstance(scheme, (Loop, CatmullClark)):
         raise ValueError(
             f"The mesh has semi-sharp tags (a `crease_sharpness` or `corner_sharpness` "
             f"below 10), which {type(scheme).__name__}() does not take: OpenSubdiv's "
@@ -46,11 +48,11 @@ def _check(mesh, scheme) -> None:
 def _level(scheme, faces, count, creases, corners, crease_sharpness, corner_sharpness, topo=None):
     """One level: the scheme's own for infinitely sharp tags, else the semi-sharp
     blend; returns the `Level` with the refined tags' sharpness filled in."""
-    if np.any(np.isfinite(crease_sharpness)) or np.any(np.isfinite(corner_sharpness)):
-        return semi_sharp_level(scheme, faces, count, creases, crease_sharpness, corners,
-                                corner_sharpness)  # fmt: skip
     if topo is None:
         topo = build_topology(faces, count, creases, corners, scheme.boundary_corners)
+    if np.any(np.isfinite(crease_sharpness)) or np.any(np.isfinite(corner_sharpness)):
+        return semi_sharp_level(scheme, topo, creases, crease_sharpness, corners,
+                                corner_sharpness)  # fmt: skip
     step = scheme.level(topo, creases, corners)
     return dataclasses.replace(step, crease_sharpness=np.full(len(step.creases), np.inf),
                                corner_sharpness=np.full(len(step.corners), np.inf))  # fmt: skip
@@ -181,9 +183,9 @@ class Refiner(eqx.Module):
 
     def composite(self) -> StencilTable:
         """One table from the base vertices straight to the refined ones (host-built)."""
-        return StencilTable.from_sparse(self.composite_sparse())
+        return StencilTable.from_sparse(self._composite_sparse())
 
-    def composite_sparse(self) -> Sparse:
+    def _composite_sparse(self) -> Sparse:
         total = Sparse.identity(self.num_base_vertices)
         for table in self.tables:
             step = Sparse(*(np.asarray(a) for a in (table.rows, table.cols, table.weights)),
@@ -218,6 +220,7 @@ class Refiner(eqx.Module):
 
     @property
     def corner_sharpness(self) -> np.ndarray:
+        """Sharpness of the refined mesh's corners (decayed; `inf`: infinitely sharp)."""
         return self._template.corner_sharpness
 
     @property
@@ -278,19 +281,47 @@ def refine_mesh(
     return Refiner(mesh, scheme, levels, memory_budget=memory_budget).mesh(mesh.vertices)
 
 
-def _semi_sharp_limit(mesh: Mesh, scheme: AbstractSurfaceScheme):
-    """Limit stencils of a mesh with semi-sharp tags: refine until every finite
-    sharpness has decayed (at most 10 levels, checked against the default memory
-    budget), take the limit stencils there and compose them with the refinement
-    (vertex `v` keeps its index through primal levels), as OpenSubdiv evaluates the
-    limit once the sharpness is gone."""
-    finite = np.concatenate([mesh.crease_sharpness, mesh.corner_sharpness])
-    levels = int(np.ceil(finite[np.isfinite(finite)].max()))
-    refiner = Refiner(mesh, scheme, levels)
+def _semi_sharp_levels(mesh: Mesh, topo, boundary_corners: bool) -> int:
+    """Levels until every semi-sharp tag that matters has decayed: tags on boundary
+    edges (always sharp) and on vertices that are corners without their tag (in no
+    face, a boundary vertex in one face, on three or more infinitely sharp edges) do
+    not count."""
+    edges = topo.edge_ids(mesh.creases, "creases") if len(mesh.creases) else np.zeros(0, int)
+    creases = mesh.crease_sharpness[~topo.boundary_edge[edges]]
+    infinite = topo.boundary_edge.copy()
+    infinite[edges[np.isinf(mesh.crease_sharpness)]] = True
+    ends = np.bincount(topo.edges[infinite].reshape(-1), minlength=topo.num_vertices)
+    fixed = (topo.valence == 0) | (ends > 2)
+    if boundary_corners:
+        fixed |= topo.boundary_vertex & (np.bincount(topo.origin, minlength=topo.num_vertices) == 1)
+    corners = mesh.corner_sharpness[~fixed[mesh.corners]]
+    finite = np.concatenate([creases, corners])
+    finite = finite[np.isfinite(finite)]
+    return int(np.ceil(finite.max())) if len(finite) else 0
+
+
+def _semi_sharp_limit(mesh: Mesh, scheme: AbstractSurfaceScheme, budget: float):
+    """Limit stencils of a mesh with semi-sharp tags: refine the whole mesh until
+    every finite sharpness has decayed (up to 10 levels), take the limit stencils there
+    and compose them with the refinement (vertex `v` keeps its index through primal
+    levels), as OpenSubdiv evaluates the limit once the sharpness is gone."""
+    topo = _topology(mesh, scheme)
+    levels = _semi_sharp_levels(mesh, topo, scheme.boundary_corners)
+    try:
+        _check_surface_memory(topo, scheme, levels, budget)
+    except ValueError:
+        raise ValueError(
+            f"Limit: the largest semi-sharp tag of this mesh lasts {levels} levels, and "
+            f"limit stencils are taken after refining the whole mesh that far, which is "
+            f"above memory_budget={budget:,} bytes for {topo.num_faces:,} faces. Pass a "
+            "larger `memory_budget`, or lower the sharpness (values of 10 or more are "
+            "infinitely sharp and cost nothing)."
+        ) from None
+    refiner = Refiner(mesh, scheme, levels, memory_budget=budget)
     fine = build_topology(refiner.faces, refiner.num_vertices, refiner.creases,
                           refiner.corners, scheme.boundary_corners)  # fmt: skip
     stencils = scheme.limit(fine, refiner.creases, refiner.corners)
-    return stencils.compose(np.arange(mesh.num_vertices), refiner.composite_sparse())
+    return stencils.compose(np.arange(mesh.num_vertices), refiner._composite_sparse())
 
 
 def _safe_normalize(x: Float[Array, "... 3"]) -> Float[Array, "... 3"]:
@@ -351,15 +382,27 @@ class Limit(eqx.Module):
     corner_points: StencilTable
     corner_sector: Int[Array, " T"]
 
-    def __init__(self, mesh: Mesh, scheme: AbstractSurfaceScheme):
+    def __init__(
+        self,
+        mesh: Mesh,
+        scheme: AbstractSurfaceScheme,
+        *,
+        memory_budget: float = DEFAULT_MEMORY_BUDGET,
+    ):
         """**Arguments:**
 
         - `mesh`: the base [`jaxsubdiv.surfaces.Mesh`][] (only its topology is used).
         - `scheme`: `Loop()` or `CatmullClark()`.
+        - `memory_budget`: for meshes with semi-sharp tags, whose limit is taken after
+          refining the whole mesh until the sharpness has decayed (as many levels as
+          the largest sharpness that matters, rounded up; tags on boundary edges and on
+          vertices that are corners anyway do not count): the most memory, in bytes,
+          that refinement may use, checked before it starts. Keyword only.
         """
         _check(mesh, scheme)
+        memory_budget = checked_budget(memory_budget)
         if mesh.semi_sharp:
-            stencils = _semi_sharp_limit(mesh, scheme)
+            stencils = _semi_sharp_limit(mesh, scheme, memory_budget)
         else:
             topo = _topology(mesh, scheme)
             stencils = scheme.limit(topo, mesh.creases, mesh.corners)
@@ -424,7 +467,9 @@ def _normals(limit: Limit, vertices: Float[Array, "*batch V 3"]) -> Float[Array,
     return _safe_normalize(jnp.where(limit.smooth[:, None], smooth, summed))
 
 
-def limit_positions(mesh: Mesh, scheme: AbstractSurfaceScheme) -> Float[Array, "V C"]:
+def limit_positions(
+    mesh: Mesh, scheme: AbstractSurfaceScheme, *, memory_budget: float = DEFAULT_MEMORY_BUDGET
+) -> Float[Array, "V C"]:
     """The limit position of every vertex of `mesh` under `scheme`, in vertex order.
 
     A convenience for `Limit(mesh, scheme).positions(mesh.vertices)`; keep a
@@ -434,25 +479,29 @@ def limit_positions(mesh: Mesh, scheme: AbstractSurfaceScheme) -> Float[Array, "
 
     - `mesh`: a [`jaxsubdiv.surfaces.Mesh`][].
     - `scheme`: `Loop()` or `CatmullClark()`.
+    - `memory_budget`: as for [`jaxsubdiv.surfaces.Limit`][] (semi-sharp tags). Keyword only.
 
     **Returns:**
 
     `(V, C)` limit points.
     """
-    return Limit(mesh, scheme).positions(mesh.vertices)
+    return Limit(mesh, scheme, memory_budget=memory_budget).positions(mesh.vertices)
 
 
-def limit_normals(mesh: Mesh, scheme: AbstractSurfaceScheme) -> Float[Array, "V 3"]:
+def limit_normals(
+    mesh: Mesh, scheme: AbstractSurfaceScheme, *, memory_budget: float = DEFAULT_MEMORY_BUDGET
+) -> Float[Array, "V 3"]:
     """Unit limit normals at the vertices of `mesh` (see [`jaxsubdiv.surfaces.Limit`][]).
 
     **Arguments:**
 
     - `mesh`: a [`jaxsubdiv.surfaces.Mesh`][] with 3-d vertices.
     - `scheme`: `Loop()` or `CatmullClark()`.
+    - `memory_budget`: as for [`jaxsubdiv.surfaces.Limit`][] (semi-sharp tags). Keyword only.
 
     **Returns:**
 
     `(V, 3)` unit normals: exact at smooth vertices and at boundary and crease
     vertices whose sectors have a limit tangent plane (see [`jaxsubdiv.surfaces.Limit`][]).
     """
-    return Limit(mesh, scheme).normals(mesh.vertices)
+    return Limit(mesh, scheme, memory_budget=memory_budget).normals(mesh.vertices)

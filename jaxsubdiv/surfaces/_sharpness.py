@@ -33,7 +33,7 @@ import numpy as np
 
 from ._base import AbstractSurfaceScheme, Level
 from ._stencil import Sparse
-from ._topology import CORNER, CREASE, SMOOTH, Topology, build_topology
+from ._topology import CORNER, CREASE, SMOOTH, Topology
 
 
 def decrement(sharpness: np.ndarray) -> np.ndarray:
@@ -56,9 +56,9 @@ def child_edge_sharpness(topo: Topology, sharpness: np.ndarray, method: str) -> 
         others = count[end] - 1
         mean_other = (total[end] - np.where(semi, sharpness, 0)) / np.maximum(others, 1)
         chaikin = np.maximum(0.75 * sharpness + 0.25 * mean_other - 1, 0.0)
-        # Chaikin only where the vertex has another semi-sharp edge and two or more
-        # edges in all (OpenSubdiv decrements uniformly otherwise).
-        use = semi & (others >= 1) & (topo.valence[end] >= 2)
+        # Chaikin only where the vertex has another semi-sharp edge (OpenSubdiv
+        # decrements uniformly otherwise).
+        use = semi & (others >= 1)
         halves.append(np.where(use, chaikin, uniform))
     return np.stack(halves, 1)
 
@@ -75,17 +75,20 @@ def _vertex_rules(topo: Topology, sharp_ends: np.ndarray, corner: np.ndarray) ->
 
 def semi_sharp_level(
     scheme: AbstractSurfaceScheme,
-    faces: np.ndarray,
-    num_vertices: int,
+    parent: Topology,
     creases: np.ndarray,
     crease_sharpness: np.ndarray,
     corners: np.ndarray,
     corner_sharpness: np.ndarray,
 ) -> Level:
     """One level of `scheme` (Loop or Catmull-Clark) with semi-sharp tags (see the
-    module docstring); tags of the refined mesh carry their decayed sharpness."""
+    module docstring) on the topology `parent`, built with every tag sharp; tags of
+    the refined mesh carry their decayed sharpness.
+
+    The child rules' stencil is built for the whole level, not only for the rows that
+    blend: simpler, and at most doubles the level's host cost (measured on a torus of
+    8,192 quads, 3 levels, one semi-sharp edge: 0.89 s against 0.46 s)."""
     method = scheme.crease_method
-    parent = build_topology(faces, num_vertices, creases, corners, scheme.boundary_corners)
     V, E = parent.num_vertices, parent.num_edges
     edge_sharpness = np.zeros(E)
     edge_sharpness[parent.edge_ids(creases, "creases")] = crease_sharpness
