@@ -847,20 +847,25 @@ def test_chaikin_and_uniform_points_by_hand():
       the child is a crease along 8 and 12, and only (6, 7) decays: weight 0.2;
     - the point of edge (7, 8), sharpness 0.9 < 1: uniform blends 0.9 midpoint + 0.1
       smooth point; under Chaikin both of its halves stay sharp (0.2 at 7, 0.675 at 8),
-      so it is the midpoint."""
+      so it is the midpoint. Without the edge (8, 9) its half at 8 decays (the only
+      semi-sharp edge there), the Chaikin point blends like the uniform one, and vertex
+      7's crease rule still uses edge (7, 8), sharp at 7 only."""
     v, f = grid(4, 4)
-    creases, sharpness = [[6, 7], [7, 8], [7, 12], [8, 9]], [0.2, 0.9, 4.0, 4.0]
     smooth = refined(v, f, jss.CatmullClark(), 1)  # untagged: smooth rules everywhere
     edge = 25 + jss.Mesh(v, f).edges().tolist().index([7, 8])
-    uniform = refined(v, f, jss.CatmullClark(), 1, creases=creases, crease_sharpness=sharpness)
-    np.testing.assert_allclose(uniform[7], 0.55 * v[7] + 0.45 * smooth[7], rtol=0, atol=1e-15)
-    np.testing.assert_allclose(uniform[edge], 0.9 * (v[7] + v[8]) / 2 + 0.1 * smooth[edge],
-                               rtol=0, atol=1e-15)  # fmt: skip
-    chaikin = refined(v, f, jss.CatmullClark(crease_method="chaikin"), 1, creases=creases,
-                      crease_sharpness=sharpness)  # fmt: skip
+    blend = 0.9 * (v[7] + v[8]) / 2 + 0.1 * smooth[edge]
     crease = 0.75 * v[7] + 0.125 * (v[8] + v[12])
-    np.testing.assert_allclose(chaikin[7], 0.2 * v[7] + 0.8 * crease, rtol=0, atol=1e-15)
-    np.testing.assert_allclose(chaikin[edge], (v[7] + v[8]) / 2, rtol=0, atol=1e-15)
+    for creases, sharpness, edge_point in [
+        ([[6, 7], [7, 8], [7, 12], [8, 9]], [0.2, 0.9, 4.0, 4.0], (v[7] + v[8]) / 2),
+        ([[6, 7], [7, 8], [7, 12]], [0.2, 0.9, 4.0], blend),
+    ]:
+        tags = dict(creases=creases, crease_sharpness=sharpness)
+        uniform = refined(v, f, jss.CatmullClark(), 1, **tags)
+        np.testing.assert_allclose(uniform[7], 0.55 * v[7] + 0.45 * smooth[7], rtol=0, atol=1e-15)
+        np.testing.assert_allclose(uniform[edge], blend, rtol=0, atol=1e-15)
+        chaikin = refined(v, f, jss.CatmullClark(crease_method="chaikin"), 1, **tags)
+        np.testing.assert_allclose(chaikin[7], 0.2 * v[7] + 0.8 * crease, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(chaikin[edge], edge_point, rtol=0, atol=1e-15)
 
 
 def test_limit_of_semi_sharp_tags_within_budget():
