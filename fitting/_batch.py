@@ -210,10 +210,12 @@ def fit_batch(
     Items whose samples are not finite get the status `nonfinite_input`; items that are
     not valid outlines for the settings (a wrong shape such as a 1-D array, all samples
     equal, fewer samples than unknowns, an open-looking outline with
-    `boundary="closed"`) get `invalid_input`, with one warning that says why
-    (`on_failure="warn"`), or raise that `ValueError` before anything is fitted
-    (`on_failure="raise"`). Neither is fitted, and their numbers are NaN. Settings that
-    are wrong for every item, and a batch with no valid item, raise.
+    `boundary="closed"`, more samples than `memory_budget` allows) get `invalid_input`,
+    with one warning that says why (`on_failure="warn"`), or raise that `ValueError`
+    before anything is fitted (`on_failure="raise"`). Neither is fitted: their numbers
+    are NaN, their step count 0, and they take the place of a valid item, so that the
+    others' results do not depend on them. An error that every item has (a wrong
+    setting) raises. Under `jax.jit` only shapes can be checked: values are not.
 
     **Arguments:**
 
@@ -266,38 +268,38 @@ def fit_batch(
     devices = jax.devices() if devices is None else list(devices)
     if not devices:
         raise ValueError("`fit_batch(devices=...)` is empty; pass None for all devices.")
-    def check(i, t, w):
-        return prepare(
-            t, scheme, n_control, levels=levels, boundary=boundary, fit_params=fit_params,
-            weights=w, ordered=ordered, smoothing=smoothing, caller=f"fit_batch(targets[{i}])",
-            memory_budget=memory_budget, profile=profile, pin_ends=pin_ends,
-        )
-
     dimension = dims[0] if dims else 2
-    prepared, bad, invalid = [], [], {}
+    prepared, bad, invalid, first_error = [], [], {}, None
     for i, (t, w) in enumerate(zip(items, weights)):
-        # Items that cannot be fitted are replaced by a stand-in that passes validation,
-        # so the batch keeps its shape; their outputs become NaN and their status
-        # nonfinite_input or invalid_input below, and the other items are unaffected.
+        # Items that cannot be fitted are not fitted: their outputs become NaN and their
+        # status nonfinite_input or invalid_input below, the other items unaffected.
         well_formed = t.ndim == 2 and t.shape[-1] >= 2
         if well_formed and not is_traced(t) and not np.all(np.isfinite(np.asarray(t))):
             bad.append(i)
             t, w = _stand_in(t.shape[0], dimension, t.dtype), None
         try:
-            t, w, n, _, names, values = check(i, t, w)
+            t, w, n, _, names, values = prepare(
+                t, scheme, n_control, levels=levels, boundary=boundary,
+                fit_params=fit_params, weights=w, ordered=ordered, smoothing=smoothing,
+                caller=f"fit_batch(targets[{i}])", memory_budget=memory_budget,
+                profile=profile, pin_ends=pin_ends,
+            )  # fmt: skip
         except ValueError as error:
             if on_failure == "raise" or is_traced(t):
                 raise
-            try:  # a wrong setting fails every item, the stand-in too: raise it
-                t, w, n, _, names, values = check(i, _stand_in(
-                    max(32, (dimension + 1) * static_int(n_control, "n_control", minimum=1)),
-                    dimension, t.dtype), None)  # fmt: skip
-            except ValueError:
-                raise error from None
-            invalid[i] = str(error)
+            invalid[i], first_error = str(error), first_error or error
+            t = w = None
         prepared.append((t, w))
-    if len(invalid) == len(items):
-        raise ValueError(f"fit_batch: no item can be fitted; item 0: {invalid[0]}")
+    valid = [i for i, (t, _) in enumerate(prepared) if t is not None and i not in bad]
+    if invalid and not valid and not bad:
+        # A wrong setting fails every item; so does a batch of invalid items.
+        raise first_error
+    # Items not fitted take the place of the first valid one (or of a non-finite item's
+    # stand-in), so that they change neither the batch's bucket, dtype nor levels.
+    if valid or bad:
+        stand_in = prepared[valid[0] if valid else bad[0]]
+        prepared = [stand_in if i in invalid or i in bad else item
+                    for i, item in enumerate(prepared)]  # fmt: skip
     # One sample-count bucket for the whole batch: every item padded to it.
     size = bucket(max(t.shape[0] for t, _ in prepared))
     hermite = uses_tangents(scheme, names, boundary)
@@ -331,8 +333,10 @@ def fit_batch(
             index = jnp.array(items_)
             blank = lambda x: x.at[index].set(jnp.nan) if eqx.is_inexact_array(x) else x
             result = jax.tree.map(blank, result)
-            result = eqx.tree_at(lambda r: r.status, result,
-                                 result.status.at[index].set(status_code(status)))  # fmt: skip
+            result = eqx.tree_at(
+                lambda r: (r.status, r.num_steps), result,
+                (result.status.at[index].set(status_code(status)), result.num_steps.at[index].set(0)),
+            )  # fmt: skip
     if invalid and on_failure == "warn":
         reasons = "; ".join(f"item {i}: {why}" for i, why in list(invalid.items())[:3])
         more = f" (and {len(invalid) - 3} more)" if len(invalid) > 3 else ""

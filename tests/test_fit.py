@@ -337,11 +337,12 @@ def test_invalid_batch_item_fails_alone(bad, words):
     with pytest.warns(RuntimeWarning, match=r"1 of 3 items are not valid .* item 1: .*" + re.escape(words)):
         batch = fitting.fit_batch([good[0], bad, good[1]], js.CubicBSpline(), 8, max_steps=400)
     assert list(np.asarray(batch.converged)) == [True, False, True]
-    assert batch.message[1].startswith("invalid_input")
+    assert batch.message[1].startswith("invalid_input") and int(batch.num_steps[1]) == 0
     assert np.all(np.isnan(np.asarray(batch.control_points[1]))) and np.isnan(float(batch.rms[1]))
     for i, target in zip((0, 2), good):
         single = fitting.fit(target, js.CubicBSpline(), 8, max_steps=400)
         np.testing.assert_allclose(batch.control_points[i], single.control_points, atol=1e-8)
+        assert int(batch.num_steps[i]) == int(single.num_steps)
     with pytest.raises(ValueError, match=re.escape(words)):
         fitting.fit_batch([good[0], bad, good[1]], js.CubicBSpline(), 8, on_failure="raise")
 
@@ -901,7 +902,9 @@ def test_bad_input_is_a_clear_error(change, error, words):
          r"`fit_batch\(targets\[1\]\)\(target=...\)` must have shape \(m, d\)"),
         # A setting wrong for every item raises whatever on_failure says.
         (dict(boundary="periodic"), "boundary"),
-        (dict(targets=[np.ones((50, 2)), np.ones((60, 2))]), "no item can be fitted"),
+        # A batch of invalid items raises the first item's error.
+        (dict(targets=[np.ones((50, 2)), np.ones((60, 2))]),
+         r"`fit_batch\(targets\[0\]\)\(target=...\)`: all samples are the same point"),
     ],
 )
 def test_bad_batch_input_is_a_clear_error(change, words):
