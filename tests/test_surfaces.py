@@ -1026,17 +1026,42 @@ UV_SMOOTH = {"NONE": "all", "PRESERVE_CORNERS": "corners_only",
              "PRESERVE_BOUNDARIES": "boundaries", "SMOOTH_ALL": "none"}  # fmt: skip
 
 
-@pytest.mark.parametrize("option", list(UV_SMOOTH))
-@pytest.mark.parametrize("case", ["a_cube_cross", "b_grid_islands"])
-def test_face_varying_matches_blender(case, option):
+BLENDER_UV_CREASES = pathlib.Path(__file__).parent / "data" / "blender_uv_creases.npz"
+UV_CASES = [(BLENDER_UVS, c) for c in ("a_cube_cross", "b_grid_islands")] + [
+    (BLENDER_UV_CREASES, c) for c in ("g_seam_inf", "g_inside_inf", "g_semi_inside", "g_semi_seam",
+                                      "g_corner", "c_inf_inside", "c_inf_seam", "c_semi")]  # fmt: skip
+# OpenSubdiv's "dependent sharpness" (the second value at a two-value vertex follows a
+# semi-sharp crease in the other value's region) is not implemented: 3.7e-3 here.
+UV_NOT_HANDLED = {("g_semi_inside", "PRESERVE_CORNERS_AND_JUNCTIONS"),
+                  ("g_semi_inside", "PRESERVE_CORNERS_JUNCTIONS_AND_CONCAVE")}  # fmt: skip
+
+
+UV_PARAMS = [
+    pytest.param(path, case, option, id=f"{case}-{option}", marks=[pytest.mark.xfail(
+        strict=True, reason="OpenSubdiv's dependent sharpness is not implemented (documented)")]
+        if (case, option) in UV_NOT_HANDLED else [])
+    for path, case in UV_CASES for option in UV_SMOOTH
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("path, case, option", UV_PARAMS)
+def test_face_varying_matches_blender(path, case, option):
     """Blender 5.0.1's modifier (OpenSubdiv) refining UVs with seams: a cube unwrapped as
     a cross, and an open grid of three islands (a seam through the interior, a junction
-    of three islands, a concave island corner, seams ending on the boundary), every
-    `uv_smooth` option, levels 1 and 2 (`benchmarks/blender_uvs.py` made the file).
-    Blender numbers refined vertices its own way, so each refined face is matched by its
-    vertex positions and its corners' UVs compared; inputs are exact in float32."""
-    data = np.load(BLENDER_UVS)
-    mesh = jss.Mesh(data[f"{case}_vertices"], data[f"{case}_faces"])
+    of three islands, a concave island corner, seams ending on the boundary), alone and
+    with infinitely sharp and semi-sharp creases and corners inside islands and along
+    seams, every `uv_smooth` option, levels 1 and 2 (`benchmarks/blender_uvs.py` and
+    `blender_uv_creases.py` made the files). Blender numbers refined vertices its own
+    way, so each refined face is matched by its vertex positions and its corners' UVs
+    compared; inputs are exact in float32."""
+    data = np.load(path)
+    tags = {}
+    if f"{case}_creases" in data and len(data[f"{case}_creases"]):
+        tags.update(creases=data[f"{case}_creases"], crease_sharpness=data[f"{case}_sharpness"])
+    if f"{case}_corners" in data and len(data[f"{case}_corners"]):
+        tags.update(corners=data[f"{case}_corners"],
+                    corner_sharpness=data[f"{case}_corner_sharpness"])  # fmt: skip
+    mesh = jss.Mesh(data[f"{case}_vertices"], data[f"{case}_faces"], **tags)
     uvs = data[f"{case}_uv_values"]
     for level in (1, 2):
         ours = jss.Refiner(mesh, jss.CatmullClark(), level)
@@ -1050,7 +1075,7 @@ def test_face_varying_matches_blender(case, option):
         # Our vertex -> Blender's vertex, by position (unique within float32 rounding).
         d = np.linalg.norm(points[:, None] - their_points[None], axis=-1)
         to_theirs = d.argmin(axis=1)
-        assert d.min(axis=1).max() < 1e-6
+        assert d.min(axis=1).max() < 2e-6
         # Each refined face by its set of vertices; corners by vertex.
         theirs = {frozenset(f.tolist()): (f.tolist(), u) for f, u in
                   zip(data[f"{prefix}_faces"], their_uvs)}  # fmt: skip
@@ -1074,11 +1099,19 @@ def test_face_varying_errors():
         jss.FaceVarying(mesh, indices, jss.CatmullClark(), linear_interpolation="smooth")
     with pytest.raises(ValueError, match="`Loop\\(\\)` or `CatmullClark\\(\\)`"):
         jss.FaceVarying(mesh, indices, jss.DooSabin())
-    with pytest.raises(ValueError, match="`indices` as a mesh of face-varying values"):
-        bowtie = indices.copy()
-        bowtie[1, 0] = 0  # value 0 at corners of opposite faces of the cube
-        jss.FaceVarying(mesh, np.unique(bowtie, return_inverse=True)[1].reshape(6, 4),
+    with pytest.raises(ValueError, match="value 0 is used at the mesh's vertices 0 and 4"):
+        shared = indices.copy()
+        shared[1, 0] = 0  # value 0 at corners of opposite faces of the cube
+        jss.FaceVarying(mesh, np.unique(shared, return_inverse=True)[1].reshape(6, 4),
                         jss.CatmullClark())  # fmt: skip
+    with pytest.raises(ValueError, match="FaceVarying: 3 levels of CatmullClark .* memory_budget=300,000"):
+        jss.FaceVarying(mesh, indices, jss.CatmullClark(), 3, memory_budget=300_000)
+    v, f = grid(2, 2)  # vertex 4 inside, in the four faces
+    split = np.array(f).copy()
+    split[1][split[1] == 4] = 9  # faces 1 and 2 (diagonal to each other) get their own
+    split[2][split[2] == 4] = 10  # values at vertex 4: faces 0 and 3 keep value 4 apart
+    with pytest.raises(ValueError, match="`indices` as a mesh of face-varying values: .*not manifold"):
+        jss.FaceVarying(jss.Mesh(v, f), split, jss.CatmullClark(), 0)
 
 
 # ------------------------------------------- boundary interpolation: edge only

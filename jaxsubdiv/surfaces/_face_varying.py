@@ -19,7 +19,14 @@ from jaxtyping import Array, ArrayLike, Float, Int
 from ..validation import DEFAULT_MEMORY_BUDGET, checked_budget, static_int
 from ._base import AbstractSurfaceScheme
 from ._mesh import Mesh, as_faces
-from ._refine import MAX_LEVELS, Refiner, _check, apply_tables
+from ._refine import (
+    MAX_LEVELS,
+    Refiner,
+    _check,
+    _check_surface_memory,
+    _level,
+    apply_tables,
+)
 from ._stencil import StencilTable
 from ._topology import build_topology, flatten_faces
 
@@ -30,61 +37,59 @@ LINEAR_INTERPOLATION = ("none", "corners_only", "corners_plus1", "corners_plus2"
                         "boundaries", "all")  # fmt: skip
 
 
-def _channel_tags(mesh: Mesh, channel: np.ndarray, topo, scheme, option: str):
-    """Creases and corners (with sharpness) of the channel's own mesh at level 0: the
-    mesh's tags moved to the channel's edges and values, plus the values that the
-    option keeps sharp (`Vtr::FVarLevel`'s rules, see `FaceVarying`)."""
-    flat, _ = flatten_faces(channel)  # one value per half-edge, like `topo.origin`
-    count = int(flat.max(initial=-1)) + 1
-    # The mesh's tagged edges, from each of their faces, become the channel's edges.
-    edge_sharpness = np.zeros(topo.num_edges)
-    if len(mesh.creases):
-        edge_sharpness[topo.edge_ids(mesh.creases, "creases")] = mesh.crease_sharpness
-    tagged = np.flatnonzero(edge_sharpness[topo.edge] > 0)
-    pairs = np.sort(np.stack([flat[tagged], flat[topo.next[tagged]]], 1), axis=1)
-    crease_sharpness = edge_sharpness[topo.edge[tagged]]
-    vertex_sharpness = np.zeros(topo.num_vertices)
-    vertex_sharpness[mesh.corners] = mesh.corner_sharpness
-    if scheme.boundary_corners:  # the mesh's own corners pin every value there
-        nfaces = np.bincount(topo.origin, minlength=topo.num_vertices)
-        vertex_sharpness[topo.boundary_vertex & (nfaces == 1)] = np.inf
-    corner = np.flatnonzero(vertex_sharpness[topo.origin] > 0)
-    corners, corner_sharpness = flat[corner], vertex_sharpness[topo.origin[corner]]
-
-    # Per vertex of the mesh: how many values meet there, and whether a seam (an edge
-    # whose two faces disagree at one of its ends) touches it.
+def _option_corners(mesh: Mesh, flat: np.ndarray, count: int, topo, scheme, option: str):
+    """The values that the option keeps sharp from the start (OpenSubdiv's
+    `Vtr::FVarLevel` rules), as indices into the level-0 values; refinement keeps their
+    indices, and children inherit them."""
     V = topo.num_vertices
-    pairs_at = np.unique(np.stack([topo.origin, flat], 1), axis=0)
-    values_at = np.bincount(pairs_at[:, 0], minlength=V)
-    inner = topo.twin >= 0
-    h = np.flatnonzero(inner)
-    t = topo.twin[h]
-    seam = flat[h] != flat[topo.next[t]]  # h starts where t ends
-    touched = np.zeros(V, bool)
-    touched[topo.origin[h[seam]]] = True
-    touched[topo.origin[t[seam]]] = True
-    # Faces of each value's span (the corners carrying it), and whether its span holds an
-    # infinitely sharp edge of the mesh (a mesh edge inside the channel's region).
-    span = np.bincount(flat, minlength=count)
-    sharp_inside = np.zeros(count, bool)
-    inf = np.flatnonzero(np.isinf(edge_sharpness[topo.edge]) & (topo.twin >= 0))
-    sharp_inside[flat[inf]] = True
-    sharp_inside[flat[topo.next[inf]]] = True
-
-    keep = np.zeros(V, bool)  # vertices all of whose values are kept
+    sharp = np.zeros(V, bool)
+    if scheme.boundary_corners:  # the mesh's own corners pin every value there
+        sharp |= topo.boundary_vertex & (np.bincount(topo.origin, minlength=V) == 1)
+    values_at = np.bincount(np.unique(np.stack([topo.origin, flat], 1), axis=0)[:, 0],
+                            minlength=V)  # fmt: skip
     if option in ("corners_plus1", "corners_plus2"):
-        keep |= values_at >= 3  # a junction of three or more regions
-        two = values_at == 2
+        sharp |= values_at >= 3  # a junction of three or more regions
+        # Per value: the faces of its region at its vertex, and whether an infinitely
+        # sharp edge of the mesh lies inside that region (continuous at that end: a
+        # crease along a seam bounds the region and does not count).
+        span = np.bincount(flat, minlength=count)
+        edge_sharpness = np.zeros(topo.num_edges)
+        if len(mesh.creases):
+            edge_sharpness[topo.edge_ids(mesh.creases, "creases")] = mesh.crease_sharpness
+        h = np.flatnonzero(np.isinf(edge_sharpness[topo.edge]) & (topo.twin >= 0))
+        inside = np.zeros(count, bool)
+        inside[flat[h[flat[h] == flat[topo.next[topo.twin[h]]]]]] = True
         either = np.zeros(V, bool)
-        either[topo.origin[sharp_inside[flat]]] = True
+        either[topo.origin[inside[flat]]] = True
         if option == "corners_plus2":
             either[topo.origin[span[flat] == 1]] = True  # one region's corner is concave
-            keep |= (values_at == 1) & touched & ~topo.boundary_vertex  # a seam's dart end
-        keep |= two & either
-    extra = np.unique(flat[keep[topo.origin]])
-    corners = np.concatenate([corners, extra])
-    corner_sharpness = np.concatenate([corner_sharpness, np.full(len(extra), np.inf)])
-    return count, _merge(pairs, crease_sharpness), _merge(corners, corner_sharpness)
+            # A seam's end inside the mesh (a dart): one value, and a seam edge at it (an
+            # edge whose faces disagree at either end touches both ends).
+            inner = np.flatnonzero(topo.twin >= 0)
+            seam = np.zeros(topo.num_edges, bool)
+            seam[topo.edge[inner[flat[inner] != flat[topo.next[topo.twin[inner]]]]]] = True
+            touched = np.zeros(V, bool)
+            touched[topo.edges[seam].reshape(-1)] = True
+            sharp |= (values_at == 1) & touched & ~topo.boundary_vertex
+        sharp |= (values_at == 2) & either
+    return np.unique(flat[sharp[topo.origin]])
+
+
+def _mapped_tags(topo, flat: np.ndarray, creases, crease_sharpness, corners, corner_sharpness):
+    """The mesh's tags (at this level, with their sharpness) on the channel: a tagged edge
+    on each of its faces' channel edges, a tagged vertex on each of its values. The
+    channel takes the mesh's decayed sharpness every level, so that it decays as the
+    mesh's does (under Chaikin, by the mesh's neighbours, not the channel's)."""
+    edge_sharpness = np.zeros(topo.num_edges)
+    if len(creases):
+        edge_sharpness[topo.edge_ids(creases, "creases")] = crease_sharpness
+    tagged = np.flatnonzero(edge_sharpness[topo.edge] > 0)
+    pairs = np.sort(np.stack([flat[tagged], flat[topo.next[tagged]]], 1), axis=1)
+    vertex_sharpness = np.zeros(topo.num_vertices)
+    vertex_sharpness[np.asarray(corners, np.int64)] = corner_sharpness
+    corner = np.flatnonzero(vertex_sharpness[topo.origin] > 0)
+    return (*_merge(pairs, edge_sharpness[topo.edge[tagged]]),
+            *_merge(flat[corner], vertex_sharpness[topo.origin[corner]]))
 
 
 def _merge(keys, sharpness):
@@ -178,11 +183,13 @@ class FaceVarying(eqx.Module):
           tags are used).
         - `indices`: `(F, K)` integer array (or lists) like `mesh.faces`: the value index
           of every face corner, `-1` exactly where `mesh.faces` pads. Values are
-          numbered from 0 without gaps.
+          numbered from 0 without gaps, and a value belongs to one vertex of the mesh
+          (an OBJ file's `vt` shared by two vertices must be copied for each).
         - `scheme`: `Loop()` or `CatmullClark()`.
         - `levels`: as for `Refiner`.
         - `linear_interpolation`: which values stay sharp (above). Keyword only.
-        - `memory_budget`: as for `Refiner`. Keyword only.
+        - `memory_budget`: as for `Refiner`, for the channel and the mesh's tags
+          refined side by side (checked before anything is built). Keyword only.
         """
         _check(mesh, scheme)
         if not hasattr(scheme, "boundary_interpolation"):
@@ -198,7 +205,10 @@ class FaceVarying(eqx.Module):
             )
         levels = static_int(levels, "levels", minimum=0, maximum=MAX_LEVELS)
         memory_budget = checked_budget(memory_budget)
-        channel = as_faces(indices)
+        try:
+            channel = as_faces(indices)
+        except (TypeError, ValueError) as error:
+            raise type(error)(str(error).replace("`faces`", "`indices`")) from None
         if channel.shape != mesh.faces.shape or np.any((channel < 0) != (mesh.faces < 0)):
             raise ValueError(
                 f"`indices` must have the shape of `mesh.faces` {mesh.faces.shape} and -1 "
@@ -210,40 +220,64 @@ class FaceVarying(eqx.Module):
                 "`indices` must number the values 0, 1, ..., U - 1 without gaps "
                 f"(value {int(np.setdiff1d(np.arange(used[-1] + 1), used)[0])} is unused)."
             )
+        count = len(used)
         topo = build_topology(mesh.faces, mesh.num_vertices, mesh.creases, mesh.corners,
                               scheme.boundary_corners)  # fmt: skip
-        count, (creases, crease_sharpness), (corners, corner_sharpness) = _channel_tags(
-            mesh, channel, topo, scheme, linear_interpolation
-        )
+        flat, _ = flatten_faces(channel)  # one value per half-edge, like `topo.origin`
+        owners = np.unique(np.stack([flat, topo.origin], 1), axis=0)
+        if len(owners) > count:
+            u = int(owners[np.argmax(owners[1:, 0] == owners[:-1, 0]) + 1, 0])
+            at = owners[owners[:, 0] == u, 1][:2].tolist()
+            raise ValueError(
+                f"`indices`: value {u} is used at the mesh's vertices {at[0]} and {at[1]}; "
+                "a value belongs to one vertex (as in OpenSubdiv). Give each vertex its "
+                "own copy of a shared value."
+            )
         # Values in a single face are corners except under "none" (OpenSubdiv's
-        # corners-only rule and everything more linear); the mesh's own corners were
-        # tagged above.
+        # corners-only rule and everything more linear).
         boundary = "edge_only" if linear_interpolation == "none" else "edge_and_corner"
         rules = type(scheme)(boundary_interpolation=boundary, crease_method=scheme.crease_method)
-        faces, tables = channel, []
         try:
-            for level in range(levels):
-                if linear_interpolation in ("boundaries", "all"):
-                    creases, crease_sharpness, corners, corner_sharpness = _linear_tags(
-                        faces, count, linear_interpolation, creases, crease_sharpness,
-                        corners, corner_sharpness,
-                    )  # fmt: skip
-                step = Refiner(
-                    Mesh(np.zeros((count, 0)), faces, creases=creases, corners=corners,
-                         crease_sharpness=crease_sharpness, corner_sharpness=corner_sharpness),
-                    rules, 1, memory_budget=memory_budget,
-                )  # fmt: skip
-                tables += step.tables
-                faces, count = step.faces, step.num_vertices
-                creases, crease_sharpness = step.creases, step.crease_sharpness
-                corners, corner_sharpness = step.corners, step.corner_sharpness
+            values_topo = build_topology(channel, count, boundary_corners=rules.boundary_corners)
         except ValueError as error:
             raise ValueError(f"`indices` as a mesh of face-varying values: {error}") from None
+        _check_surface_memory(values_topo, rules, levels, memory_budget, "FaceVarying", factor=2)
+        extra = _option_corners(mesh, flat, count, topo, scheme, linear_interpolation)
+
+        # Level by level, the mesh (for its refined tags) and the channel side by side.
+        faces, tags = mesh.faces, (mesh.creases, mesh.crease_sharpness, mesh.corners,
+                                   mesh.corner_sharpness)  # fmt: skip
+        vertices, tables = mesh.num_vertices, []
+        for _ in range(levels):
+            creases, crease_sharpness, corners, corner_sharpness = _mapped_tags(
+                topo, flat, *tags
+            )
+            corners, corner_sharpness = _merge(
+                np.concatenate([corners, extra]),
+                np.concatenate([corner_sharpness, np.full(len(extra), np.inf)]),
+            )
+            if linear_interpolation in ("boundaries", "all"):
+                creases, crease_sharpness, corners, corner_sharpness = _linear_tags(
+                    channel, count, linear_interpolation, creases, crease_sharpness,
+                    corners, corner_sharpness,
+                )  # fmt: skip
+            step = Refiner(
+                Mesh(np.zeros((count, 0)), channel, creases=creases, corners=corners,
+                     crease_sharpness=crease_sharpness, corner_sharpness=corner_sharpness),
+                rules, 1, memory_budget=memory_budget,
+            )  # fmt: skip
+            tables += step.tables
+            channel, count = step.faces, step.num_vertices
+            level = _level(scheme, faces, vertices, tags[0], tags[2], tags[1], tags[3], topo=topo)
+            faces, vertices = level.faces, level.stencil.shape[0]
+            tags = (level.creases, level.crease_sharpness, level.corners, level.corner_sharpness)
+            topo = build_topology(faces, vertices, tags[0], tags[2], scheme.boundary_corners)
+            flat, _ = flatten_faces(channel)
         self.tables = tuple(tables)
         self.linear_interpolation = linear_interpolation
         self.num_base_values = int(used[-1]) + 1 if len(used) else 0
         self.memory_budget = memory_budget
-        self._template = Mesh(np.zeros((count, 0)), faces)
+        self._template = Mesh(np.zeros((count, 0)), channel)
 
     def __call__(self, values: Float[ArrayLike, "*batch U C"]) -> Float[Array, "*batch N C"]:
         """The refined values, `(..., U', C)` for `(..., U, C)`."""

@@ -64,17 +64,19 @@ def _level(scheme, faces, count, creases, corners, crease_sharpness, corner_shar
 MAX_LEVELS = 30
 
 
-def _check_surface_memory(topo, scheme, levels: int, budget: float) -> None:
+def _check_surface_memory(topo, scheme, levels: int, budget: float, who: str = "Refiner",
+                          factor: int = 1) -> None:  # fmt: skip
     """Predict the sizes level by level from the counts (nothing is refined) and raise
-    the memory-budget error before anything is built."""
+    the memory-budget error, naming `who`, before anything is built; `factor`: how many
+    such refinements are built side by side."""
     base = counts = Counts.of(topo)
-    per = scheme.bytes_per_half_edge
+    per = scheme.bytes_per_half_edge * factor
     for level in range(1, levels + 1):
         counts = scheme.refined_counts(counts)
         need = counts.half_edges * per
         if need > budget:
             raise ValueError(
-                f"Refiner: {levels} levels of {type(scheme).__name__} on a mesh of "
+                f"{who}: {levels} levels of {type(scheme).__name__} on a mesh of "
                 f"{base.faces:,} faces are above memory_budget={budget:,} bytes: level "
                 f"{level} would make about {counts.faces:,} faces and {counts.vertices:,} "
                 f"vertices and need about {format_bytes(need)} for its topology and stencil "
