@@ -259,7 +259,7 @@ def fit_batch(
             f"`fit_batch(weights=...)` needs one weight array per target ({len(items)}): "
             "an array (B, m) or a list of (m_i,) arrays."
         )
-    dims = sorted({int(t.shape[-1]) for t in items if t.ndim == 2})
+    dims = sorted({int(t.shape[-1]) for t in items if t.ndim == 2 and t.shape[-1] >= 2})
     if len(dims) > 1:
         raise ValueError(
             f"`fit_batch(targets=...)` mixes points of dimensions {dims}; fit each "

@@ -322,6 +322,7 @@ def test_batch_equals_loop_and_nan_item_fails_alone():
 
 INVALID_ITEMS = [
     ("one_dimensional", np.linspace(0.0, 1.0, 50), "must have shape (m, d)"),
+    ("one_column", np.linspace(0.0, 1.0, 50)[:, None], "must have shape (m, d)"),
     ("all_equal", np.ones((80, 2)), "all samples are the same point"),
     ("too_few", blob(120, seed=9)[:5], "give at least as many samples as unknowns"),
     ("open_looking", blob(120, seed=9)[:70], "looks like an open curve"),
