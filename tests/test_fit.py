@@ -348,6 +348,18 @@ def test_invalid_batch_item_fails_alone(bad, words):
         fitting.fit_batch([good[0], bad, good[1]], js.CubicBSpline(), 8, on_failure="raise")
 
 
+def test_unordered_batch_equals_single_fits():
+    """#16: items of an `ordered=False` batch (samples shuffled) are what `fit` gives
+    each alone (an earlier batch item ended unconverged, 1.56 away from its single fit)."""
+    rng = np.random.default_rng(0)
+    targets = [t[rng.permutation(len(t))] for t in (blob(120, seed=s) for s in range(3))]
+    batch = fitting.fit_batch(targets, js.CubicBSpline(), 8, ordered=False, max_steps=400)
+    for i, target in enumerate(targets):
+        single = fitting.fit(target, js.CubicBSpline(), 8, ordered=False, max_steps=400)
+        assert bool(batch.converged[i]) and bool(single.converged)
+        np.testing.assert_allclose(batch.control_points[i], single.control_points, atol=1e-8)
+
+
 def test_ragged_batch_equals_single_fits():
     # Converged tightly: the padded and unpadded programs round differently, and at the
     # default tol their iterations may stop at different points of a flat valley.
