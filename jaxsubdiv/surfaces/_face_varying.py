@@ -248,7 +248,7 @@ class FaceVarying(eqx.Module):
         faces, tags = mesh.faces, (mesh.creases, mesh.crease_sharpness, mesh.corners,
                                    mesh.corner_sharpness)  # fmt: skip
         vertices, tables = mesh.num_vertices, []
-        for _ in range(levels):
+        for level in range(levels):
             creases, crease_sharpness, corners, corner_sharpness = _mapped_tags(
                 topo, flat, *tags
             )
@@ -268,9 +268,12 @@ class FaceVarying(eqx.Module):
             )  # fmt: skip
             tables += step.tables
             channel, count = step.faces, step.num_vertices
-            level = _level(scheme, faces, vertices, tags[0], tags[2], tags[1], tags[3], topo=topo)
-            faces, vertices = level.faces, level.stencil.shape[0]
-            tags = (level.creases, level.crease_sharpness, level.corners, level.corner_sharpness)
+            if level == levels - 1:
+                break
+            refined = _level(scheme, faces, vertices, tags[0], tags[2], tags[1], tags[3], topo=topo)
+            faces, vertices = refined.faces, refined.stencil.shape[0]
+            tags = (refined.creases, refined.crease_sharpness, refined.corners,
+                    refined.corner_sharpness)  # fmt: skip
             topo = build_topology(faces, vertices, tags[0], tags[2], scheme.boundary_corners)
             flat, _ = flatten_faces(channel)
         self.tables = tuple(tables)
