@@ -149,3 +149,32 @@ def test_finite_extreme_vertices_are_read(tmp_path):
     path = tmp_path / "ok.obj"
     path.write_text("v 0 0 0\nv 1e308 0 0\nv 0 -1e-320 0\nf 1 2 3\n")
     np.testing.assert_array_equal(jss.read_mesh(path).vertices[1], [1e308, 0, 0])
+
+
+def test_read_uvs_gives_a_face_varying_channel(tmp_path):
+    """Texture coordinates of an OBJ, as `FaceVarying` takes them: one value per
+    distinct (vertex, vt) pair (the file uses vt 2 at vertices 2 and 4 of one face, a
+    repeating texture, and vt 1 at vertices 1 and 5; the faces' shared edge is a seam),
+    aligned with `read_mesh`'s faces."""
+    path = tmp_path / "uv.obj"
+    path.write_text(
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nvt 0.5 0.5\n"
+        "f 1/1 2/2 3/3 4/2\nf 2/3 5/1 3/4\n"
+    )
+    mesh = jss.read_mesh(path)
+    values, indices = jss.read_uvs(path)
+    # (vertex, vt) pairs in sorted order: (0,0) (1,1) (1,2) (2,2) (2,3) (3,1) (4,0).
+    np.testing.assert_array_equal(values, [[0, 0], [1, 0], [1, 1], [1, 1], [0.5, 0.5], [1, 0],
+                                           [0, 0]])  # fmt: skip
+    np.testing.assert_array_equal(indices, [[0, 1, 3, 5], [2, 6, 4, -1]])
+    assert indices.shape == mesh.faces.shape
+    channel = jss.FaceVarying(mesh, indices, jss.CatmullClark(), 1)
+    assert channel.faces.shape == (7, 4) and channel.num_values == 7 + 7 + 2
+    with pytest.raises(ValueError, match=r"uv\.obj: face 1 has a corner without a texture coordinate"):
+        path.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\n"
+                        "f 1/1 2/1 3/1\nf 1/1 3 4/1\n")  # fmt: skip
+        jss.read_uvs(path)
+    with pytest.raises(ValueError, match=r"uv\.obj, line 5: face refers to texture coordinate 2, but only 1"):
+        path.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nf 1/1 2/2 3/1\n")
+        jss.read_uvs(path)

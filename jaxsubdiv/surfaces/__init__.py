@@ -9,7 +9,7 @@ from ._base import AbstractSurfaceScheme as AbstractSurfaceScheme
 from ._catmull_clark import CatmullClark as CatmullClark
 from ._doo_sabin import DooSabin as DooSabin
 from ._face_varying import FaceVarying as FaceVarying
-from ._io import read_mesh as read_mesh, write_mesh as write_mesh
+from ._io import read_mesh as read_mesh, read_uvs as read_uvs, write_mesh as write_mesh
 from ._loop import Loop as Loop
 from ._mesh import Mesh as Mesh
 from ._refine import (

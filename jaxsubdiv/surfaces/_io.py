@@ -50,8 +50,23 @@ class _Lines:
             raise self.error(number, f"expected numbers, got {' '.join(tokens)!r}.") from None
 
 
-def _read_obj(lines: _Lines):
-    vertices, flat, sizes = [], [], []
+def _obj_index(lines: _Lines, number: int, token: str, count: int, what: str) -> int:
+    """A 1-based (or negative, from the end) OBJ index to a 0-based one, checked."""
+    index = lines.numbers(number, [token], int)[0]
+    if index == 0:
+        raise lines.error(number, f"OBJ {what} indices start at 1, got 0.")
+    index = index - 1 if index > 0 else count + index
+    if not 0 <= index < count:
+        raise lines.error(
+            number, f"face refers to {what} {token}, but only {count} are defined so far."
+        )
+    return index
+
+
+def _read_obj(lines: _Lines, uvs: list | None = None):
+    """Vertices, flat face indices and sizes; with `uvs` a list, also `(texture
+    coordinates, flat per-corner texture indices or -1)` appended to it."""
+    vertices, flat, sizes, textures, corners = [], [], [], [], []
     for number, line in lines.items:
         tokens = line.split()
         key = tokens[0]
@@ -59,23 +74,24 @@ def _read_obj(lines: _Lines):
             if len(tokens) < 4:
                 raise lines.error(number, f"a vertex needs 3 coordinates, got {line!r}.")
             vertices.append(lines.numbers(number, tokens[1:4]))
+        elif key == "vt" and uvs is not None:
+            if len(tokens) < 3:
+                raise lines.error(number, f"a texture coordinate needs u and v, got {line!r}.")
+            textures.append(lines.numbers(number, tokens[1:3]))
         elif key == "f":
             if len(tokens) < 4:
                 raise lines.error(number, f"a face needs at least 3 vertices, got {line!r}.")
-            face = []
             for t in tokens[1:]:  # "i", "i/t", "i//n", "i/t/n"
-                index = lines.numbers(number, [t.split("/")[0]], int)[0]
-                if index == 0:
-                    raise lines.error(number, "OBJ vertex indices start at 1, got 0.")
-                index = index - 1 if index > 0 else len(vertices) + index
-                if not 0 <= index < len(vertices):
-                    raise lines.error(
-                        number, f"face refers to vertex {t}, but only {len(vertices)} are defined so far."
-                    )
-                face.append(index)
-            flat += face
-            sizes.append(len(face))
-        # vt, vn, o, g, s, usemtl, mtllib, l, ... carry nothing we use.
+                parts = t.split("/")
+                flat.append(_obj_index(lines, number, parts[0], len(vertices), "vertex"))
+                if uvs is not None:
+                    corners.append(_obj_index(lines, number, parts[1], len(textures),
+                                              "texture coordinate")
+                                   if len(parts) > 1 and parts[1] else -1)  # fmt: skip
+            sizes.append(len(tokens) - 1)
+        # vn, o, g, s, usemtl, mtllib, l, ... carry nothing we use.
+    if uvs is not None:
+        uvs += [textures, corners]
     return vertices, flat, sizes
 
 
@@ -191,8 +207,9 @@ def read_mesh(path: str | os.PathLike, format: str | None = None, *, check: bool
     """Read a polygon mesh from a Wavefront OBJ, OFF or ASCII PLY file.
 
     OBJ: `v` and `f` lines are read (indices in the `i`, `i/t`, `i//n` and `i/t/n`
-    forms, negative indices counting back from the last vertex); texture coordinates,
-    normals, groups and materials are ignored. OFF: the plain `OFF` header. PLY: the
+    forms, negative indices counting back from the last vertex); normals, groups and
+    materials are ignored, and texture coordinates are read by
+    [`jaxsubdiv.surfaces.read_uvs`][]. OFF: the plain `OFF` header. PLY: the
     `ascii` format with `x, y, z` vertex properties and a face list property.
 
     **Arguments:**
@@ -233,6 +250,49 @@ def read_mesh(path: str | os.PathLike, format: str | None = None, *, check: bool
         except ValueError as e:
             raise ValueError(f"{path}: {e}") from None
     return Mesh(vertices, faces)
+
+
+def read_uvs(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
+    """The texture coordinates of a Wavefront OBJ file, as a face-varying channel for
+    [`jaxsubdiv.surfaces.FaceVarying`][].
+
+    ```python
+    mesh = read_mesh("model.obj")
+    values, indices = read_uvs("model.obj")
+    uvs = FaceVarying(mesh, indices, CatmullClark(), 2, linear_interpolation="boundaries")
+    refined_uvs = uvs(values)  # one per corner of uvs.faces
+    ```
+
+    OBJ shares a `vt` between vertices where it likes (a repeating texture); a
+    face-varying value belongs to one vertex, so each distinct (vertex, `vt`) pair of
+    the file becomes one value.
+
+    **Returns:**
+
+    `(values, indices)`: `(U, 2)` float64 texture coordinates (u, v), and the `(F, K)`
+    value index of every face corner, `-1`-padded like `read_mesh(path).faces`.
+
+    **Raises:**
+
+    `ValueError` naming the file and line for bad syntax or an out-of-range index, and
+    naming the face when a corner has no texture coordinate.
+    """
+    lines = _Lines(path, _read_text(path, "obj"), comment="#")
+    found = []
+    _, flat, sizes = _read_obj(lines, found)
+    textures, corners = found
+    corners = np.asarray(corners, np.int64)
+    if np.any(corners < 0):
+        corner = int(np.argmax(corners < 0))
+        face = int(np.searchsorted(np.cumsum(sizes), corner, side="right"))
+        raise ValueError(
+            f"{path}: face {face} has a corner without a texture coordinate (`f i` or "
+            "`f i//n`); every corner needs one (`f i/t`) to read the file's UVs."
+        )
+    pairs, values = np.unique(np.stack([np.asarray(flat, np.int64), corners], 1), axis=0,
+                              return_inverse=True)  # fmt: skip
+    uvs = np.asarray(textures, np.float64).reshape(-1, 2)[pairs[:, 1]]
+    return uvs, pad_faces(values.reshape(-1), np.asarray(sizes, np.int64))
 
 
 def write_mesh(path: str | os.PathLike, mesh: Mesh, format: str | None = None) -> None:
