@@ -1,5 +1,7 @@
 """Mesh files: OBJ, OFF and ASCII PLY reading, writing and errors."""
 
+import pathlib
+
 import helpers
 import numpy as np
 import pytest
@@ -178,3 +180,39 @@ def test_read_uvs_gives_a_face_varying_channel(tmp_path):
     with pytest.raises(ValueError, match=r"uv\.obj, line 5: face refers to texture coordinate 2, but only 1"):
         path.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nf 1/1 2/2 3/1\n")
         jss.read_uvs(path)
+
+
+SUZANNE = {"NONE": "all", "PRESERVE_CORNERS_AND_JUNCTIONS": "corners_plus1",
+           "PRESERVE_BOUNDARIES": "boundaries", "SMOOTH_ALL": "none"}  # fmt: skip
+
+
+@pytest.mark.parametrize("option", list(SUZANNE))
+def test_suzanne_obj_uvs_match_blender(option):
+    """A real file: Blender's Suzanne (quads and triangles, its own UV map with seams)
+    as Blender's exporter writes it, read by `read_mesh` and `read_uvs` and refined one
+    level with `FaceVarying`, against Blender's modifier on the same file
+    (`benchmarks/blender_suzanne_uvs.py`): positions and every corner's UV within
+    float32 rounding. Faces are matched by their vertices' positions."""
+    data = pathlib.Path(__file__).parent / "data"
+    mesh = jss.read_mesh(data / "suzanne.obj")
+    values, indices = jss.read_uvs(data / "suzanne.obj")
+    ref = np.load(data / "blender_suzanne_uvs.npz")
+    refiner = jss.Refiner(mesh, jss.CatmullClark(), 1)
+    channel = jss.FaceVarying(mesh, indices, jss.CatmullClark(), 1,
+                              linear_interpolation=SUZANNE[option])  # fmt: skip
+    points, uvs = np.asarray(refiner(mesh.vertices)), np.asarray(channel(values))
+    theirs = ref[f"{option}_L1_pos"].astype(np.float64)
+    d = np.linalg.norm(points[:, None] - theirs[None], axis=-1)
+    to_theirs = d.argmin(axis=1)
+    assert d.min(axis=1).max() < 1e-6
+    loop_vertex, their_uvs = ref[f"{option}_L1_loopv"], ref[f"{option}_L1_uvs"].astype(np.float64)
+    starts = ref[f"{option}_L1_start"]
+    faces = {frozenset(loop_vertex[a:b].tolist()): (loop_vertex[a:b].tolist(), their_uvs[a:b])
+             for a, b in zip(starts, np.append(starts[1:], len(loop_vertex)))}  # fmt: skip
+    assert len(faces) == len(refiner.faces)
+    worst = 0.0
+    for face, corners in zip(refiner.faces, channel.faces):
+        order, their = faces[frozenset(to_theirs[face].tolist())]
+        for vertex, value in zip(to_theirs[face], corners):
+            worst = max(worst, np.abs(uvs[value] - their[order.index(vertex)]).max())
+    assert worst < 1e-6, worst
