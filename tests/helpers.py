@@ -181,6 +181,27 @@ def splprep_curve(samples, n, dense=4096):
 # Meshes for the surface tests.
 
 
+def corner_value_error(points, faces, corners, values, their_points, their_faces, their_values,
+                       point_tolerance):  # fmt: skip
+    """The largest difference between refined per-corner values (`values[corners[i][j]]`
+    at corner `j` of refined face `faces[i]`, vertices `points`) and another program's
+    (`their_values[i][j]` at vertex `their_faces[i][j]`), whose refined vertices are
+    numbered its own way: vertices are matched by position (each within
+    `point_tolerance` of one of theirs) and faces by their vertex sets, which must be
+    the same faces."""
+    d = np.linalg.norm(points[:, None] - their_points[None], axis=-1)
+    to_theirs = d.argmin(axis=1)
+    assert d.min(axis=1).max() < point_tolerance
+    theirs = {frozenset(list(f)): (list(f), u) for f, u in zip(their_faces, their_values)}
+    assert len(theirs) == len(faces) == len(corners)
+    worst = 0.0
+    for face, face_corners in zip(faces, corners):
+        order, their = theirs[frozenset(to_theirs[face].tolist())]
+        for vertex, value in zip(to_theirs[face], face_corners):
+            worst = max(worst, float(np.abs(values[value] - their[order.index(vertex)]).max()))
+    return worst
+
+
 def prism():
     """A closed pentagonal prism: two pentagons and five quads (mixed polygons)."""
     t = 2 * np.pi * np.arange(5) / 5

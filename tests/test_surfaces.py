@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.interpolate
-from helpers import assert_one_clear_error, prism
+from helpers import assert_one_clear_error, corner_value_error, prism
 
 import jaxsubdiv as js
 import jaxsubdiv.surfaces as jss
@@ -1070,21 +1070,11 @@ def test_face_varying_matches_blender(path, case, option):
         points = np.asarray(ours(mesh.vertices))
         values = np.asarray(channel(uvs))
         prefix = f"{case}_{option}_L{level}"
-        their_points = data[f"{prefix}_vertices"].astype(np.float64)
-        their_uvs = data[f"{prefix}_uvs"].astype(np.float64).reshape(-1, 4, 2)
-        # Our vertex -> Blender's vertex, by position (unique within float32 rounding).
-        d = np.linalg.norm(points[:, None] - their_points[None], axis=-1)
-        to_theirs = d.argmin(axis=1)
-        assert d.min(axis=1).max() < 2e-6
-        # Each refined face by its set of vertices; corners by vertex.
-        theirs = {frozenset(f.tolist()): (f.tolist(), u) for f, u in
-                  zip(data[f"{prefix}_faces"], their_uvs)}  # fmt: skip
-        assert len(theirs) == len(channel.faces) == len(ours.faces)
-        worst = 0.0
-        for face, corners in zip(ours.faces, channel.faces):
-            order, their = theirs[frozenset(to_theirs[face].tolist())]
-            for vertex, value in zip(to_theirs[face], corners):
-                worst = max(worst, np.abs(values[value] - their[order.index(vertex)]).max())
+        worst = corner_value_error(
+            points, ours.faces, channel.faces, values,
+            data[f"{prefix}_vertices"].astype(np.float64), data[f"{prefix}_faces"].tolist(),
+            data[f"{prefix}_uvs"].astype(np.float64).reshape(-1, 4, 2), point_tolerance=2e-6,
+        )  # fmt: skip
         assert worst < 1e-6, worst
 
 

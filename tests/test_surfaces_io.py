@@ -201,18 +201,12 @@ def test_suzanne_obj_uvs_match_blender(option):
     channel = jss.FaceVarying(mesh, indices, jss.CatmullClark(), 1,
                               linear_interpolation=SUZANNE[option])  # fmt: skip
     points, uvs = np.asarray(refiner(mesh.vertices)), np.asarray(channel(values))
-    theirs = ref[f"{option}_L1_pos"].astype(np.float64)
-    d = np.linalg.norm(points[:, None] - theirs[None], axis=-1)
-    to_theirs = d.argmin(axis=1)
-    assert d.min(axis=1).max() < 1e-6
-    loop_vertex, their_uvs = ref[f"{option}_L1_loopv"], ref[f"{option}_L1_uvs"].astype(np.float64)
-    starts = ref[f"{option}_L1_start"]
-    faces = {frozenset(loop_vertex[a:b].tolist()): (loop_vertex[a:b].tolist(), their_uvs[a:b])
-             for a, b in zip(starts, np.append(starts[1:], len(loop_vertex)))}  # fmt: skip
-    assert len(faces) == len(refiner.faces)
-    worst = 0.0
-    for face, corners in zip(refiner.faces, channel.faces):
-        order, their = faces[frozenset(to_theirs[face].tolist())]
-        for vertex, value in zip(to_theirs[face], corners):
-            worst = max(worst, np.abs(uvs[value] - their[order.index(vertex)]).max())
+    loop_vertex, starts = ref[f"{option}_L1_loopv"], ref[f"{option}_L1_start"]
+    their_uvs = ref[f"{option}_L1_uvs"].astype(np.float64)
+    ends = np.append(starts[1:], len(loop_vertex))
+    worst = helpers.corner_value_error(
+        points, refiner.faces, channel.faces, uvs, ref[f"{option}_L1_pos"].astype(np.float64),
+        [loop_vertex[a:b].tolist() for a, b in zip(starts, ends)],
+        [their_uvs[a:b] for a, b in zip(starts, ends)], point_tolerance=1e-6,
+    )  # fmt: skip
     assert worst < 1e-6, worst
