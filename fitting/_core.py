@@ -124,6 +124,40 @@ def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solv
     an optimistix solver (`_solver.make_solver`, its tolerances fixed at construction),
     `max_steps` is its static step limit. `progress`: a line per solver step.
     """
+    problem = set_up(data, init, objective)
+    y0 = problem.start
+    own_solver = solver is None
+    if objective.names and objective.profile:
+        y0 = profile_start(objective, problem.data, y0, tol, max_steps if own_solver else None)
+    if own_solver:
+        solver = default_solver(objective, tol, problem.valid_count, max_steps, progress)
+    sol = optx.least_squares(
+        objective.residuals, solver, y0, args=problem.data,
+        max_steps=None if own_solver else max_steps, throw=False,
+    )
+    # The default solver reports its foot points and model at the returned point.
+    newton = newton_step(objective, sol.value, problem.data, sol.stats.get("model"))
+    return solved_from(objective, problem, sol.value, hint=sol.stats.get("hint"),
+                       num_steps=sol.stats["num_steps"], status=status_code(sol.result),
+                       newton=newton)
+
+
+class Problem(eqx.Module):
+    """One fit set up for a solver (`set_up`): its `data` in units of the outline's size
+    (`center + scale * x` in the target's), the solver's `start` and the number of
+    samples of non-zero weight."""
+
+    data: FitData
+    start: dict
+    center: Array
+    scale: Array
+    valid_count: Array
+
+
+def set_up(data: FitData, init, objective: Objective) -> Problem:
+    """The samples in canonical order, scaled to unit size, and the starting point (the
+    linear fit at the samples' chord parameters, or `init`): everything of `solve_one`
+    before the solver runs. Pure JAX, one fit (`fit_batch`'s batched solver maps it)."""
     if objective.closed:
         # The samples in an order found from them as a set (`_init.canonical_order`):
         # the fit is then the same, bit for bit, for any phase and direction.
@@ -171,22 +205,20 @@ def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solv
         P0 = (init - center) / scale
     y0 = {"control": jax.lax.stop_gradient(objective.unknowns(P0)),
           "params": to_unconstrained(scheme, objective.names)}
-    own_solver = solver is None
-    if objective.names and objective.profile:
-        y0 = profile_start(objective, scaled, y0, tol, max_steps if own_solver else None)
-    if own_solver:
-        solver = default_solver(objective, tol, valid_count, max_steps, progress)
-    sol = optx.least_squares(
-        objective.residuals, solver, y0, args=scaled,
-        max_steps=None if own_solver else max_steps, throw=False,
-    )
-    # The default solver reports its foot points and model at the returned point.
-    newton = newton_step(objective, sol.value, scaled, sol.stats.get("model"))
-    curve, tangents = objective.curve(sol.value, scaled)
-    hint = sol.stats.get("hint")
+    return Problem(data=scaled, start=y0, center=center, scale=scale,
+                   valid_count=valid_count)
+
+
+def solved_from(objective: Objective, problem: Problem, value, *, hint, num_steps, status,
+                newton) -> Solved:
+    """The `Solved` of `problem` at the solver's returned point `value`, with the
+    solver's `hint` (foot points) there, if any, and its step count, status number and
+    Newton step (in units of the outline's size)."""
+    scaled, center, scale = problem.data, problem.center, problem.scale
+    curve, tangents = objective.curve(value, scaled)
     return Solved(
-        control_points=center + scale * objective.control_of(sol.value, scaled),
-        scheme=from_unconstrained(scheme, objective.names, sol.value["params"]),
+        control_points=center + scale * objective.control_of(value, scaled),
+        scheme=from_unconstrained(scaled.scheme, objective.names, value["params"]),
         curve=curve,
         tangents=tangents,
         target=scaled.target,
@@ -195,8 +227,8 @@ def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solv
         feet=hint[0] if hint is not None and objective.closed and objective.hermite else None,
         center=center,
         scale=scale,
-        num_steps=sol.stats["num_steps"],
-        status=status_code(sol.result),
+        num_steps=num_steps,
+        status=status,
         newton_step=scale * newton,
     )
 

@@ -156,84 +156,28 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
 
     def step(self, fn, y, args, options, state: _State, tags) -> tuple[Any, _State, None]:
         flat, unravel = ravel_pytree(y)
-        H, g = state.hessian, state.gradient
-        size = H.shape[0]
         first = state.num_steps == 0
-        trace = jnp.trace(H)
-        scale = jnp.where(trace > 0, trace / size, 1.0)
-        eye = scale * jnp.eye(size, dtype=H.dtype)
-        solve = lambda damping: -jax.scipy.linalg.cho_solve(
-            jax.scipy.linalg.cho_factor(H + damping * eye), g
-        )
-
-        # The exact Hessian is indefinite away from a minimum, and a damping too small
-        # to make it definite fails the factorization. Raise the damping tenfold until it
-        # succeeds (a factorization is cheap) instead of evaluating the model at a
-        # non-finite trial and rejecting it (measured: a third of all steps on glyphs).
-        def undefined(carry):
-            damping, delta = carry
-            return ~jnp.all(jnp.isfinite(delta)) & (damping < 1e16)
-
-        def raise_damping(carry):
-            damping, _ = carry
-            return 10 * damping, solve(10 * damping)
-
-        raised, delta = jax.lax.while_loop(
-            undefined, raise_damping, (state.damping, solve(state.damping))
-        )
+        raised, delta = damped_step(state.hessian, state.gradient, state.damping)
         delta = jnp.where(first, 0.0, delta)
         trial = unravel(flat + delta)
         hint = None if self.hint is None else self.hint(trial, args, state.hint)
         loss, gradient, hessian = self.model(trial, args, hint)
-        predicted = -(2 * g @ delta + delta @ (H @ delta))
-        actual = state.loss - loss
-        ratio = actual / jnp.where(predicted > 0, predicted, 1.0)
-        finite = jnp.isfinite(loss) & jnp.all(jnp.isfinite(delta))
-        accept = first | (finite & (predicted > 0) & (ratio > 1e-4))
-        damping = jnp.where(
-            first,
-            state.damping,
-            jnp.where(
-                accept,
-                raised * jnp.maximum(1 / 3, 1 - (2 * ratio - 1) ** 3),
-                raised * state.growth,
-            ),
-        )
-        growth = jnp.where(accept, 2.0, 2 * state.growth).astype(state.growth.dtype)
-        # Converged when two accepted steps in a row lower the loss by at most rtol of it
-        # (one small decrease may come from a heavily damped step, not a minimum).
-        small = ~first & accept & (actual <= self.rtol * state.loss + self.atol)
-        done = (small & state.small) | (accept & (loss <= self.atol))
-        # The damping cannot grow without bound: past 1e16 of the matrix's scale the steps
-        # vanish in rounding and no step lowers the loss. That is a minimum to working
-        # precision only if the gradient vanishes too; otherwise the model and the loss
-        # disagree (e.g. from a start far outside the data) and the fit has failed.
-        stuck = ~accept & (damping > 1e16)
-        out_of_steps = state.num_steps + 1 >= self.max_steps
-        flat_gradient = jnp.max(jnp.abs(g)) <= 1e-6 * jnp.maximum(1.0, jnp.sqrt(state.loss))
         if callable(self.verbose):
             self.verbose(num_steps=("Step", state.num_steps),
                          loss_this_step=("Loss on this step", 0.5 * loss))
-        keep = lambda new, old: jnp.where(accept, new, old)
+        verdict = judge(state, delta, raised, loss, self.rtol, self.atol, self.max_steps)
+        keep = lambda new, old: jnp.where(verdict.accept, new, old)
         new_state = _State(
             hint=jax.tree.map(keep, hint, state.hint),
             loss=keep(loss, state.loss),
             gradient=keep(gradient, state.gradient),
             hessian=keep(hessian, state.hessian),
-            damping=jnp.minimum(damping, 1e20),
-            growth=growth,
+            damping=verdict.damping,
+            growth=verdict.growth,
             num_steps=state.num_steps + 1,
-            small=jnp.where(accept, small, state.small),
-            terminate=done | stuck | out_of_steps,
-            result=optx.RESULTS.where(
-                stuck & ~flat_gradient,
-                optx.RESULTS.nonlinear_divergence,
-                optx.RESULTS.where(
-                    ~(done | stuck) & out_of_steps,
-                    optx.RESULTS.nonlinear_max_steps_reached,
-                    optx.RESULTS.successful,
-                ),
-            ),
+            small=verdict.small,
+            terminate=verdict.terminate,
+            result=verdict.result,
         )
         return jax.tree.map(keep, trial, y), new_state, None
 
@@ -245,3 +189,90 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         # caller's diagnostics (`solution.stats`): the returned `y` is that point.
         model = (state.loss, state.gradient, state.hessian)
         return y, aux, {"hint": state.hint, "model": model}
+
+
+def damped_step(H: Float[Array, "D D"], g: Float[Array, " D"], damping: Float[Array, ""],
+                active: Bool[Array, ""] = True) -> tuple[Float[Array, ""], Float[Array, " D"]]:
+    """The Levenberg step `-(H + damping scale I)^{-1} g` (`scale` the mean of H's
+    diagonal), with the damping raised tenfold until the damped matrix factors:
+    `(raised damping, step)`. `active` false: no raising (a batched solver's idle
+    slots must not keep the others' loop running)."""
+    size = H.shape[0]
+    trace = jnp.trace(H)
+    scale = jnp.where(trace > 0, trace / size, 1.0)
+    eye = scale * jnp.eye(size, dtype=H.dtype)
+    solve = lambda damping: -jax.scipy.linalg.cho_solve(
+        jax.scipy.linalg.cho_factor(H + damping * eye), g
+    )
+
+    # The exact Hessian is indefinite away from a minimum, and a damping too small
+    # to make it definite fails the factorization. Raise the damping tenfold until it
+    # succeeds (a factorization is cheap) instead of evaluating the model at a
+    # non-finite trial and rejecting it (measured: a third of all steps on glyphs).
+    def undefined(carry):
+        damping, delta = carry
+        return active & ~jnp.all(jnp.isfinite(delta)) & (damping < 1e16)
+
+    def raise_damping(carry):
+        damping, _ = carry
+        return 10 * damping, solve(10 * damping)
+
+    return jax.lax.while_loop(undefined, raise_damping, (damping, solve(damping)))
+
+
+class Verdict(eqx.Module):
+    """What a step decides (`judge`)."""
+
+    accept: Bool[Array, ""]
+    damping: Float[Array, ""]
+    growth: Float[Array, ""]
+    small: Bool[Array, ""]
+    terminate: Bool[Array, ""]
+    result: optx.RESULTS
+
+
+def judge(state, delta, raised, loss, rtol, atol, max_steps) -> Verdict:
+    """Accept or reject the step `delta` (taken at damping `raised`) that led to `loss`,
+    update the damping, and decide whether to stop (see the module docstring). `state`:
+    the solver's state before the step (its `loss`, `gradient`, `hessian`, `damping`,
+    `growth`, `num_steps`, `small`). One fit; a batched solver maps it."""
+    H, g = state.hessian, state.gradient
+    first = state.num_steps == 0
+    predicted = -(2 * g @ delta + delta @ (H @ delta))
+    actual = state.loss - loss
+    ratio = actual / jnp.where(predicted > 0, predicted, 1.0)
+    finite = jnp.isfinite(loss) & jnp.all(jnp.isfinite(delta))
+    accept = first | (finite & (predicted > 0) & (ratio > 1e-4))
+    damping = jnp.where(
+        first,
+        state.damping,
+        jnp.where(
+            accept,
+            raised * jnp.maximum(1 / 3, 1 - (2 * ratio - 1) ** 3),
+            raised * state.growth,
+        ),
+    )
+    growth = jnp.where(accept, 2.0, 2 * state.growth).astype(state.growth.dtype)
+    # Converged when two accepted steps in a row lower the loss by at most rtol of it
+    # (one small decrease may come from a heavily damped step, not a minimum).
+    small = ~first & accept & (actual <= rtol * state.loss + atol)
+    done = (small & state.small) | (accept & (loss <= atol))
+    # The damping cannot grow without bound: past 1e16 of the matrix's scale the steps
+    # vanish in rounding and no step lowers the loss. That is a minimum to working
+    # precision only if the gradient vanishes too; otherwise the model and the loss
+    # disagree (e.g. from a start far outside the data) and the fit has failed.
+    stuck = ~accept & (damping > 1e16)
+    out_of_steps = state.num_steps + 1 >= max_steps
+    flat_gradient = jnp.max(jnp.abs(g)) <= 1e-6 * jnp.maximum(1.0, jnp.sqrt(state.loss))
+    result = optx.RESULTS.where(
+        stuck & ~flat_gradient,
+        optx.RESULTS.nonlinear_divergence,
+        optx.RESULTS.where(
+            ~(done | stuck) & out_of_steps,
+            optx.RESULTS.nonlinear_max_steps_reached,
+            optx.RESULTS.successful,
+        ),
+    )
+    return Verdict(accept=accept, damping=jnp.minimum(damping, 1e20), growth=growth,
+                   small=jnp.where(accept, small, state.small),
+                   terminate=done | stuck | out_of_steps, result=result)
