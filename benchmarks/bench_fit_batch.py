@@ -1,0 +1,247 @@
+"""Benchmark where a batched fit's time goes: the per-item cost of a solver step's parts
+against the batch size, and a fit's solve and error measurement (issue #16).
+
+    python benchmarks/bench_fit_batch.py                  # about 5 minutes
+    python benchmarks/bench_fit_batch.py --before 68c689d # and a git revision, one run
+    python benchmarks/bench_fit_batch.py --smoke          # seconds, for CI
+
+Two parts, each on closed cubic B-spline fits at n = 16 of 400-sample outlines (the
+glyphs 'S' and 'a' and a superellipse, perturbed as in `bench_fit.py`), float64:
+
+1. **A step's parts, batched.** The default solver's step at the fit of each outline
+   is its foot points (a global search; tracked feet cost about a third of it), the
+   model (loss, gradient and Hessian, `Objective.quadratic_model`) and the damped
+   Cholesky solve. Each part is `vmap`ped over batches of 1, 10, 100, 1,000 and 10,000
+   items (the global search up to 1,000: its distance matrices hold 5 GB at 10,000)
+   and timed warm: if a step's time were per-operation overhead, the per-item cost
+   would fall with the batch size.
+2. **A fit's two programs.** `fitting.fit` runs a solve and a measurement of its
+   errors (`_core.solve_jit`, `_core.measure_jit`); both are timed warm per outline,
+   and `fitting.fit_batch` on 200 outlines against a loop of `fit`. With `--before`
+   the revision is extracted (`git archive`) and measured too, each version in fresh
+   interpreters, alternating round by round.
+
+Results: `results/fit_batch.{json,md}`.
+"""
+
+import json
+import pathlib
+import statistics
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+from _common import RESULTS, child_json, header, load  # noqa: E402
+
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+#: Part 2, run in a fresh interpreter with a version's tree first on the path.
+PROGRAMS = r"""
+import json, sys, time, statistics
+sys.path.insert(0, sys.argv[1]); sys.path.insert(1, sys.argv[2])
+import jax, numpy as np
+jax.config.update("jax_enable_x64", True)
+import jaxsubdiv as js, fitting
+import fitting._core as core
+from bench_fit import perturbed_outlines, glyph_outline, superellipse
+count, batch = int(sys.argv[3]), int(sys.argv[4])
+targets = perturbed_outlines([glyph_outline("S"), glyph_outline("a"), superellipse()], batch)
+scheme = js.CubicBSpline()
+captured = []
+solve, measure = core.solve_jit, core.measure_jit
+core.measure_jit = lambda *a, **k: captured.append((a, k)) or measure(*a, **k)
+fitting.fit(targets[0], scheme, 16)  # compile
+captured.clear()
+start = time.perf_counter()
+for t in targets[:count]:
+    jax.block_until_ready(fitting.fit(t, scheme, 16, on_failure="ignore").rms)
+loop = (time.perf_counter() - start) / count
+times = []
+for a, k in captured:
+    start = time.perf_counter(); jax.block_until_ready(measure(*a, **k))
+    times.append(time.perf_counter() - start)
+jax.block_until_ready(fitting.fit_batch(targets, scheme, 16, on_failure="ignore").rms)
+start = time.perf_counter()
+result = fitting.fit_batch(targets, scheme, 16, on_failure="ignore")
+jax.block_until_ready(result.rms)
+batch_time = time.perf_counter() - start
+print(json.dumps(dict(fit_seconds=loop, measure_seconds=statistics.median(times),
+                      batch_fits_per_second=batch / batch_time,
+                      rms=[float(x) for x in result.rms[:count]])))
+"""
+
+
+def step_parts(sizes, global_sizes, repeats):
+    """Part 1: median warm seconds per item of each step part at each batch size."""
+    import jax
+    import jax.numpy as jnp
+
+    jax.config.update("jax_enable_x64", True)
+    from bench_fit import glyph_outline, perturbed_outlines, superellipse
+
+    import jaxsubdiv as js
+    from fitting._checks import bucket, default_levels, pad
+    from fitting._core import make_objective, set_up
+    from fitting._objective import FitData
+    from fitting._solver import damped_step
+
+    largest = max(sizes)
+    outlines = perturbed_outlines([glyph_outline("S"), glyph_outline("a"), superellipse()],
+                                  min(largest, 300))
+    scheme, n, size = js.CubicBSpline(), 16, bucket(400)
+    objective = make_objective(scheme, n=n, levels=default_levels(n, size, True),
+                               boundary="closed", names=(), hermite=True, size=size)
+    padded = [pad(np.asarray(t), np.ones(len(t)), size) for t in outlines]
+    basis = objective.basis_of(scheme, jnp.float64)
+    root = jnp.sqrt(jnp.finfo(jnp.float64).tiny)
+
+    def data(target, weights):
+        return FitData(target=target, weights=weights, scheme=scheme, root_smoothing=root,
+                       basis=basis, count=jnp.int32(400))
+
+    def problem(target, weights):
+        p = set_up(data(target, weights), None, objective)
+        return p.start, p.data.target, p.data.weights
+
+    targets = jnp.stack([t for t, _ in padded])
+    weights = jnp.stack([w for _, w in padded])
+    starts, scaled, scaled_weights = jax.jit(jax.vmap(problem))(targets, weights)
+    feet = jax.jit(jax.vmap(lambda y, t, w: objective.feet(y, data(t, w))))(
+        starts, scaled, scaled_weights)
+    model = jax.vmap(lambda y, t, w, f: objective.quadratic_model(y, data(t, w), f))
+    _, gradients, hessians = jax.jit(model)(starts, scaled, scaled_weights, feet)
+    parts = {
+        "foot points (global search)": (
+            lambda y, t, w, f, g, h: objective.feet(y, data(t, w)), global_sizes),
+        "model": (lambda y, t, w, f, g, h: objective.quadratic_model(y, data(t, w), f), sizes),
+        "damped Cholesky step": (lambda y, t, w, f, g, h: damped_step(h, g, 1e-3), sizes),
+    }
+    inputs = (starts, scaled, scaled_weights, feet, gradients, hessians)
+    rows = []
+    for name, (part, batch_sizes) in parts.items():
+        for batch in batch_sizes:
+            # Items repeat the outlines cyclically; the batch's arrays are built first.
+            take = jnp.arange(batch) % scaled.shape[0]
+            args = jax.tree.map(lambda x: x[take], inputs)
+            if batch == 1:
+                call = jax.jit(part)
+                args = jax.tree.map(lambda x: x[0], args)
+            else:
+                call = jax.jit(jax.vmap(part))
+            jax.block_until_ready(call(*args))
+            times = []
+            for _ in range(repeats if batch < 1000 else max(1, repeats // 4)):
+                start = time.perf_counter()
+                jax.block_until_ready(call(*args))
+                times.append(time.perf_counter() - start)
+            per_item = statistics.median(times) / batch
+            rows.append(dict(part=name, batch=batch, ms_per_item=1e3 * per_item))
+            print(f"{name:28s} batch {batch:6d}: {1e3 * per_item:.4f} ms per item", flush=True)
+    return rows
+
+
+def programs(versions, rounds, count, batch):
+    """Part 2 for each version: `{name: [per-round results]}`, alternating."""
+    out = {name: [] for name in versions}
+    for round_ in range(rounds):
+        order = list(versions) if round_ % 2 == 0 else list(versions)[::-1]
+        for name in order:
+            tree, _ = versions[name]
+            out[name].append(child_json(PROGRAMS, str(tree), str(ROOT / "benchmarks"),
+                                        str(count), str(batch), what=f"{name} programs",
+                                        timeout=1800))
+            r = out[name][-1]
+            print(f"{name}: fit {1e3 * r['fit_seconds']:.1f} ms, measure "
+                  f"{1e3 * r['measure_seconds']:.2f} ms, fit_batch "
+                  f"{r['batch_fits_per_second']:.1f} fits/s", flush=True)
+    return out
+
+
+def markdown(report) -> str:
+    lines = [
+        "# Where a batched fit's time goes (issue #16)",
+        "",
+        f"{report['date']}, {report['machine']}, load {report['load_start']} at the start and "
+        f"{report['load_end']} at the end (1, 5, 15 min). Closed cubic B-spline, n = 16, "
+        "400-sample outlines (bucket 512), float64; `benchmarks/bench_fit_batch.py`.",
+        "",
+        "## A step's parts: per-item cost against the batch size (`vmap`, warm, median)",
+        "",
+        "| part | " + " | ".join(f"{b:,}" for b in report["sizes"]) + " |",
+        "| --- | " + " | ".join("---:" for _ in report["sizes"]) + " |",
+    ]
+    for part in dict.fromkeys(r["part"] for r in report["steps"]):
+        cells = {r["batch"]: f"{r['ms_per_item']:.3f}" for r in report["steps"]
+                 if r["part"] == part}
+        lines.append(f"| {part} (ms per item) | "
+                     + " | ".join(cells.get(b, "") for b in report["sizes"]) + " |")
+    lines += ["", "## A fit's two programs and the batch (warm)", "",
+              f"`fit`: a loop over {report['loop_count']} outlines, per outline; its error "
+              "measurement: the measurement program alone on the same outlines (median); "
+              f"`fit_batch`: {report['batch']} outlines, threads by default. "
+              f"{len(next(iter(report['programs'].values())))} rounds per version, "
+              "medians.", ""]
+    names = list(report["programs"])
+    lines += ["| version | fit (ms per outline) | of which error measurement (ms) | "
+              f"fit_batch of {report['batch']} (fits/s) |", "| --- | ---: | ---: | ---: |"]
+    for name in names:
+        rs = report["programs"][name]
+        med = lambda key, scale=1.0: statistics.median(r[key] * scale for r in rs)
+        lines.append(f"| {name} ({report['versions'][name]}) | {med('fit_seconds', 1e3):.1f} | "
+                     f"{med('measure_seconds', 1e3):.2f} | {med('batch_fits_per_second'):.1f} |")
+    if len(names) == 2:
+        before, after = (report["programs"][n] for n in names)
+        ratio = lambda key: statistics.median(a[key] / b[key] for a, b in zip(after, before))
+        lines += ["", f"After / before, median of the rounds' ratios: fit "
+                  f"{ratio('fit_seconds'):.2f}, measurement {ratio('measure_seconds'):.2f}, "
+                  f"fit_batch throughput {ratio('batch_fits_per_second'):.2f}. Largest "
+                  "relative difference of the first outlines' RMS between the versions: "
+                  f"{report['rms_difference']:.1e}."]
+    return "\n".join(lines) + "\n"
+
+
+def main():
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--smoke", action="store_true", help="a small run, for CI")
+    parser.add_argument("--before", help="a git revision to measure too, in the same run")
+    parser.add_argument("--output", type=pathlib.Path, default=None, help="JSON path")
+    args = parser.parse_args()
+    name = "fit_batch_smoke" if args.smoke else "fit_batch"
+    output = args.output or RESULTS / f"{name}.json"
+    output.parent.mkdir(parents=True, exist_ok=True)
+    from bench_analysis import _commit, _extract
+
+    report = header()
+    if args.smoke:
+        sizes, global_sizes, repeats, rounds, count, batch = (1, 10), (1, 10), 2, 1, 2, 4
+    else:
+        sizes = (1, 10, 100, 1000, 10000)
+        global_sizes, repeats, rounds, count, batch = (1, 10, 100, 1000), 8, 3, 20, 200
+    report["sizes"], report["batch"], report["loop_count"] = list(sizes), batch, count
+    report["steps"] = step_parts(sizes, global_sizes, repeats)
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = {"after": (ROOT, _commit("HEAD") + "+worktree")}
+        if args.before:
+            versions = {"before": (_extract(args.before, pathlib.Path(tmp)),
+                                   _commit(args.before)), **versions}
+        report["versions"] = {k: v[1] for k, v in versions.items()}
+        report["programs"] = programs(versions, rounds, count, batch)
+    if args.before:
+        rms = [np.asarray(r["rms"]) for r in (report["programs"]["before"][0],
+                                                report["programs"]["after"][0])]
+        report["rms_difference"] = float(np.max(np.abs(rms[1] / rms[0] - 1)))
+    report["load_end"] = load()
+    output.write_text(json.dumps(report, indent=2))
+    output.with_suffix(".md").write_text(markdown(report))
+    print(output.with_suffix(".md").read_text())
+
+
+if __name__ == "__main__":
+    main()
