@@ -127,13 +127,41 @@ def _anchor_distance2(points, anchors):
 
 
 def _lost(points, anchors, found2):
-    """Whether some anchor is nearer to its point than the foot found (squared distances
-    `found2`): then that foot is not the nearest point, and a global search is due."""
+    """Which points have an anchor nearer than the foot found (squared distances
+    `found2`): that foot is not the nearest point, and a global search is due."""
     nearest2 = _nearest_anchor(points, anchors)[1] + jnp.sum(points**2, -1)
     # The matrix-product distances carry rounding of about eps |p|^2: an absolute margin
     # keeps exact fits (feet at distance ~0) from falling back at every step.
     scale = jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(anchors**2, -1)))
-    return jnp.any(nearest2 + 1e3 * jnp.finfo(points.dtype).eps * scale < found2)
+    return nearest2 + 1e3 * jnp.finfo(points.dtype).eps * scale < found2
+
+
+def _redo(flags, values, search, points):
+    """`values` (arrays over the points) with those of the flagged points replaced by
+    `search(their points)`, a pointwise search, `RECHECK` at a time (`lax.while_loop`),
+    so that the cost is theirs, not every point's. When more than a quarter of the
+    points are flagged (a solver's first step, or a large one), all are searched anew,
+    at once (`lax.cond`): the others' values are then doubtful too."""
+    m = points.shape[0]
+    size = min(m, RECHECK)
+
+    def few(values):
+        def more(carry):
+            return jnp.any(carry[0])
+
+        def redo(carry):
+            flags, values = carry
+            index = jnp.nonzero(flags, size=size, fill_value=m)[0]  # m: none (dropped)
+            new = search(points[jnp.minimum(index, m - 1)])
+            values = jax.tree.map(lambda v, n: v.at[index].set(n, mode="drop"), values, new)
+            return flags.at[index].set(False, mode="drop"), values
+
+        return jax.lax.while_loop(more, redo, (flags, values))[1]
+
+    def many(values):
+        return search(points)
+
+    return jax.lax.cond(4 * jnp.sum(flags) > m, many, few, values)
 
 
 def project(
@@ -179,12 +207,14 @@ def track(
 ) -> tuple[Int[Array, " m"], Float[Array, " m"]]:
     """`project`, starting from each point's previous foot segment `segment`.
 
-    Searches the segments within `radius` of the previous one; if any coarse vertex (as in
-    `project`) is nearer to its point than the foot found, the foot has jumped elsewhere
-    and the global search runs instead (`lax.cond`: only then is its cost paid). Between
-    consecutive solver steps feet move little: the fit's foot points (400 samples on 1024
-    curve samples, and the held curve points on the samples) took 0.24 ms this way
-    against 0.48 ms by the global search (measured).
+    Searches the segments within `radius` of the previous one; where a coarse vertex (as
+    in `project`) is nearer to a point than the foot found, that foot has jumped
+    elsewhere and the global search runs for that point (`_redo`: only then, and only
+    for those points, is its cost paid). Between consecutive solver steps feet move
+    little: the fit's foot points (400 samples on 1024 curve samples, and the held curve
+    points on the samples) took 0.24 ms this way against 0.48 ms by the global search
+    (measured), and when some are lost, it is typically 1-12 of 448 (measured on glyph
+    fits; the whole search for all of them cost a fit up to a third of its time).
     """
     points, curve = jax.lax.stop_gradient((points, curve))
     offsets = jnp.arange(-radius, radius + 1)
@@ -194,11 +224,9 @@ def track(
     a, b = _segment_ends(curve, closed)
     foot = a[near] + fraction[:, None] * (b[near] - a[near])
     coarse, anchors = _anchors(curve, closed, coarse)
-    return jax.lax.cond(
-        _lost(points, anchors, jnp.sum((points - foot) ** 2, -1)),
-        lambda: project(points, curve, closed, coarse, count),
-        lambda: (near, fraction),
-    )
+    lost = _lost(points, anchors, jnp.sum((points - foot) ** 2, -1))
+    return _redo(lost, (near, fraction), lambda p: project(p, curve, closed, coarse, count),
+                 points)
 
 
 def foot_residual(
@@ -355,27 +383,13 @@ def nearest_on_polyline(
 
     unsure = _in_row_blocks(unsure_rows, k, points, found, nearest)
 
-    # Every segment checked, for the unsure points only, `RECHECK` at a time: typically
-    # a few points of hundreds are unsure, and checking the whole block that held them
-    # took 70% of a fit's error measurement (4 of 7 ms, 448 samples on a 1,024-point
-    # curve); a fit far from converged (20,000 samples after one step) once spent 52 s
-    # checking every point for a few unsure ones.
-    m = points.shape[0]
-    size = min(m, RECHECK)
-
-    def more(carry):
-        return jnp.any(carry[0])
-
-    def recheck(carry):
-        unsure, segment, fraction = carry
-        index = jnp.nonzero(unsure, size=size, fill_value=m)[0]  # m: none (dropped)
-        new_segment, new_fraction = all_distances(points[jnp.minimum(index, m - 1)], curve,
-                                                  closed, chunk)
-        return (unsure.at[index].set(False, mode="drop"),
-                segment.at[index].set(new_segment, mode="drop"),
-                fraction.at[index].set(new_fraction, mode="drop"))
-
-    return jax.lax.while_loop(more, recheck, (unsure, segment, fraction))[1:]
+    # Every segment checked, for the unsure points only (`_redo`): typically a few
+    # points of hundreds are unsure, and checking the whole block that held them took
+    # 70% of a fit's error measurement (4 of 7 ms, 448 samples on a 1,024-point curve);
+    # a fit far from converged (20,000 samples after one step) once spent 52 s checking
+    # every point for a few unsure ones.
+    return _redo(unsure, (segment, fraction),
+                 lambda p: all_distances(p, curve, closed, chunk), points)
 
 
 def distances(
@@ -585,9 +599,9 @@ def locate(
     With `previous` positions (the feet on a nearby curve, e.g. the last solver step's):
     without tangents, `track` from them; with tangents, the Newton steps start from them
     and may each move up to `coarse` samples (the Gauss-Newton step is exact for a foot
-    sliding along a straight piece), and the global search runs instead (`lax.cond`) if
-    any of every `coarse`-th curve sample is nearer to its point than the foot found.
-    Measured on glyph fits, this keeps the global search to a few steps per fit.
+    sliding along a straight piece), and the global search runs instead for the points
+    to which one of every `coarse`-th curve sample is nearer than the foot found
+    (`_redo`, as in `track`).
     """
     points, X = jax.lax.stop_gradient((points, X))
     if previous is not None and V is None:
@@ -604,11 +618,8 @@ def locate(
     tau = _newton(points, X, V, jax.lax.stop_gradient(previous), closed, newton, float(coarse))
     (C,) = evaluate(X, V, tau, closed, order=0)
     _, anchors = _anchors(X, closed, coarse)
-    return jax.lax.cond(
-        _lost(points, anchors, jnp.sum((C - points) ** 2, -1)),
-        lambda: locate(points, X, V, closed, coarse, newton),
-        lambda: tau,
-    )
+    lost = _lost(points, anchors, jnp.sum((C - points) ** 2, -1))
+    return _redo(lost, tau, lambda p: locate(p, X, V, closed, coarse, newton), points)
 
 
 def nearest_on_curve(
