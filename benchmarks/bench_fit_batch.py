@@ -19,7 +19,9 @@ glyphs 'S' and 'a' and a superellipse, perturbed as in `bench_fit.py`), float64:
    errors (`_core.solve_jit`, `_core.measure_jit`); both are timed warm per outline,
    and `fitting.fit_batch` on 200 outlines against a loop of `fit`. With `--before`
    the revision is extracted (`git archive`) and measured too, each version in fresh
-   interpreters, alternating round by round.
+   interpreters, alternating round by round, and both fit 600 outlines at n = 16 and
+   32 once, to compare their errors (a change of the search may lead a fit to another
+   local minimum: the distribution of the ratios says whether it is better or worse).
 
 Results: `results/fit_batch.{json,md}`.
 """
@@ -70,9 +72,18 @@ start = time.perf_counter()
 result = fitting.fit_batch(targets, scheme, 16, on_failure="ignore")
 jax.block_until_ready(result.rms)
 batch_time = time.perf_counter() - start
+quality = {}
+if int(sys.argv[5]):  # the batch's errors at n = 16 and 32, for comparing versions
+    more = perturbed_outlines([glyph_outline("S"), glyph_outline("a"), superellipse()],
+                              int(sys.argv[5]))
+    for n in (16, 32):
+        fitted = fitting.fit_batch(more, scheme, n, on_failure="ignore")
+        quality[n] = dict(rms=np.asarray(fitted.rms).tolist(),
+                          converged=int(np.sum(np.asarray(fitted.converged))),
+                          median_steps=float(np.median(np.asarray(fitted.num_steps))))
 print(json.dumps(dict(fit_seconds=loop, measure_seconds=statistics.median(times),
                       batch_fits_per_second=batch / batch_time,
-                      rms=[float(x) for x in result.rms[:count]])))
+                      rms=[float(x) for x in result.rms[:count]], quality=quality)))
 """
 
 
@@ -145,16 +156,19 @@ def step_parts(sizes, global_sizes, repeats):
     return rows
 
 
-def programs(versions, rounds, count, batch):
-    """Part 2 for each version: `{name: [per-round results]}`, alternating."""
+def programs(versions, rounds, count, batch, quality):
+    """Part 2 for each version: `{name: [per-round results]}`, alternating; the first
+    round also fits `quality` outlines at n = 16 and 32 (their errors, to compare the
+    versions' fits)."""
     out = {name: [] for name in versions}
     for round_ in range(rounds):
         order = list(versions) if round_ % 2 == 0 else list(versions)[::-1]
         for name in order:
             tree, _ = versions[name]
             out[name].append(child_json(PROGRAMS, str(tree), str(ROOT / "benchmarks"),
-                                        str(count), str(batch), what=f"{name} programs",
-                                        timeout=1800))
+                                        str(count), str(batch),
+                                        str(quality if round_ == 0 else 0),
+                                        what=f"{name} programs", timeout=3600))
             r = out[name][-1]
             print(f"{name}: fit {1e3 * r['fit_seconds']:.1f} ms, measure "
                   f"{1e3 * r['measure_seconds']:.2f} ms, fit_batch "
@@ -194,6 +208,20 @@ def markdown(report) -> str:
         med = lambda key, scale=1.0: statistics.median(r[key] * scale for r in rs)
         lines.append(f"| {name} ({report['versions'][name]}) | {med('fit_seconds', 1e3):.1f} | "
                      f"{med('measure_seconds', 1e3):.2f} | {med('batch_fits_per_second'):.1f} |")
+    if len(names) == 2 and report["programs"][names[0]][0]["quality"]:
+        lines += ["", f"## The same fits? {report['quality']} outlines fitted by `fit_batch` in "
+                  "each version", "",
+                  "| n | RMS after / before: min | 5% | median | 95% | max | geometric mean "
+                  "| > 1% worse | > 1% better | converged (before, after) | median steps "
+                  "(before, after) |", "| ---: | " + "---: | " * 10]
+        for n in report["programs"][names[0]][0]["quality"]:
+            old, new = (report["programs"][v][0]["quality"][n] for v in names)
+            q = np.asarray(new["rms"]) / np.asarray(old["rms"])
+            lines.append(
+                f"| {n} | " + " | ".join(f"{x:.3f}" for x in np.quantile(q, [0, .05, .5, .95, 1]))
+                + f" | {np.exp(np.mean(np.log(q))):.4f} | {int(np.sum(q > 1.01))} | "
+                f"{int(np.sum(q < 0.99))} | {old['converged']}, {new['converged']} | "
+                f"{old['median_steps']:g}, {new['median_steps']:g} |")
     if len(names) == 2:
         before, after = (report["programs"][n] for n in names)
         ratio = lambda key: statistics.median(a[key] / b[key] for a, b in zip(after, before))
@@ -221,10 +249,13 @@ def main():
     report = header()
     if args.smoke:
         sizes, global_sizes, repeats, rounds, count, batch = (1, 10), (1, 10), 2, 1, 2, 4
+        quality = 4
     else:
         sizes = (1, 10, 100, 1000, 10000)
         global_sizes, repeats, rounds, count, batch = (1, 10, 100, 1000), 8, 3, 20, 200
+        quality = 600
     report["sizes"], report["batch"], report["loop_count"] = list(sizes), batch, count
+    report["quality"] = quality
     report["steps"] = step_parts(sizes, global_sizes, repeats)
     with tempfile.TemporaryDirectory() as tmp:
         versions = {"after": (ROOT, _commit("HEAD") + "+worktree")}
@@ -232,7 +263,7 @@ def main():
             versions = {"before": (_extract(args.before, pathlib.Path(tmp)),
                                    _commit(args.before)), **versions}
         report["versions"] = {k: v[1] for k, v in versions.items()}
-        report["programs"] = programs(versions, rounds, count, batch)
+        report["programs"] = programs(versions, rounds, count, batch, quality)
     if args.before:
         rms = [np.asarray(r["rms"]) for r in (report["programs"]["before"][0],
                                                 report["programs"]["after"][0])]
