@@ -78,8 +78,8 @@ def _window_project(points, curve, closed, window, count=None):
 #: pairs took about 1.1 GB at 16,000 samples). 2^22 pairs of float64: 32 MiB an array.
 BLOCK_PAIRS = 2**22
 
-#: Points whose certified nearest point (`nearest_on_polyline`) is checked against every
-#: segment together, when the certificate leaves them unsure.
+#: Points searched again together (`_redo`): foot points lost by `track` and `locate`,
+#: and points that `nearest_on_polyline`'s certificate leaves unsure.
 RECHECK = 16
 
 
@@ -351,8 +351,7 @@ def nearest_on_polyline(
     ball (about the center of their vertices' bounding box), so that group can hold a
     nearer point only if its ball comes closer than the candidate. Groups that `project`
     did not search (all but the two either side of the nearest coarse vertex) must not;
-    where one does, every segment is checked for that point (`RECHECK` such points at a
-    time).
+    where one does, every segment is checked for that point (`_redo`).
     Certified, this took 0.8-2 ms against 4-5 ms for checking every segment (measured,
     1024 points near a 400-segment outline). `count`: as for `project`.
     """
