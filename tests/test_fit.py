@@ -273,19 +273,11 @@ def test_non_convergence_is_reported_and_last_iterate_returned():
 
 
 def test_newton_step_estimates_the_distance_to_the_optimum():
-    # The estimate is that of a smooth minimum: checked where the fit run to tol=1e-13
-    # ends at one (its own estimate below the floor). Not at 'a' any more: since the
-    # lost feet alone are searched again, its fit reaches a lower minimum (RMS 0.002427
-    # instead of 0.002485) at a kink of the loss, where a sample's foot switches between
-    # branches of the curve and no quadratic model holds (the reference stops there
-    # with nonlinear_divergence).
-    samples = glyph_outline("S")
+    samples = glyph_outline("a")
     size = np.ptp(samples, axis=0).max()
-    reference = fitting.fit(samples, js.CubicBSpline(), 16, tol=1e-13, max_steps=3000,
-                            on_failure="ignore")
-    optimum = reference.control_points
+    optimum = fitting.fit(samples, js.CubicBSpline(), 16, tol=1e-13, max_steps=3000,
+                          on_failure="ignore").control_points
     floor = 1e-7 * size  # the reference's own accuracy (its newton_step: 2e-8)
-    assert bool(reference.converged) and float(reference.newton_step) < floor
     for tol in (1e-5, 1e-7):
         result = fitting.fit(samples, js.CubicBSpline(), 16, tol=tol)
         remaining = np.abs(np.asarray(result.control_points - optimum)).max()
@@ -563,9 +555,8 @@ def test_feet_tracked_from_the_last_step_are_the_nearest_points(monkeypatch, ang
                                                                 searches):
     """Feet found from the previous curve's feet are the nearest points of the new curve
     (brute force on a 64x finer polyline of it): after a small move (no global search),
-    after a large one that makes the search start over for all, and after a small move
-    with three feet put on the far side of the curve, which alone are searched again (one
-    call of the global search, for `RECHECK` points)."""
+    after a large one that makes the search start over, and after a small move with
+    three feet put on the far side of the curve (lost: all are searched again, once)."""
 
     samples = jnp.asarray(blob(300, seed=4))
     n, levels, scheme = 12, 6, js.CubicBSpline()
