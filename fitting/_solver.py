@@ -191,12 +191,11 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         return y, aux, {"hint": state.hint, "model": model}
 
 
-def damped_step(H: Float[Array, "D D"], g: Float[Array, " D"], damping: Float[Array, ""],
-                active: Bool[Array, ""] = True) -> tuple[Float[Array, ""], Float[Array, " D"]]:
+def damped_step(H: Float[Array, "D D"], g: Float[Array, " D"],
+                damping: Float[Array, ""]) -> tuple[Float[Array, ""], Float[Array, " D"]]:
     """The Levenberg step `-(H + damping scale I)^{-1} g` (`scale` the mean of H's
     diagonal), with the damping raised tenfold until the damped matrix factors:
-    `(raised damping, step)`. `active` false: no raising (a batched solver's idle
-    slots must not keep the others' loop running)."""
+    `(raised damping, step)`."""
     size = H.shape[0]
     trace = jnp.trace(H)
     scale = jnp.where(trace > 0, trace / size, 1.0)
@@ -211,7 +210,7 @@ def damped_step(H: Float[Array, "D D"], g: Float[Array, " D"], damping: Float[Ar
     # non-finite trial and rejecting it (measured: a third of all steps on glyphs).
     def undefined(carry):
         damping, delta = carry
-        return active & ~jnp.all(jnp.isfinite(delta)) & (damping < 1e16)
+        return ~jnp.all(jnp.isfinite(delta)) & (damping < 1e16)
 
     def raise_damping(carry):
         damping, _ = carry
