@@ -2,7 +2,6 @@
 
 import jax
 import jax.numpy as jnp
-import lineax as lx
 import numpy as np
 from jaxtyping import Array, Float, Int
 
@@ -144,7 +143,7 @@ def initial_control(
     `table` is the curve's basis: row `K` maps the control points to the limit curve at
     its dyadic sample `K` (`_curve.curve_tables`, as a dense matrix).
 
-    Solves $(B^T W B + \\mu D^T D) P = B^T W T$ with lineax's Cholesky, where B maps
+    Solves $(B^T W B + \\mu D^T D) P = B^T W T$ with a Cholesky factorization, where B maps
     control points to the curve at the samples' chord-length positions and D takes
     second differences; $\\mu$ is the user's smoothing plus a tiny ridge (1e-9 of the
     system's scale) that keeps the system positive definite when samples leave some
@@ -162,8 +161,8 @@ def initial_control(
         ridge = 1e-9 * jnp.trace(normal) / n
         matrix = normal + (smoothing / n + ridge) * (D.T @ D) + ridge * jnp.eye(n, dtype=B.dtype)
         rhs = B.T @ (W[:, None] * target)
-        operator = lx.MatrixLinearOperator(matrix, lx.positive_semidefinite_tag)
-        solve = lambda b: lx.linear_solve(operator, b, lx.Cholesky(), throw=False).value
-        return jax.vmap(solve, in_axes=1, out_axes=1)(rhs)
+        # jax.scipy's Cholesky, not lineax's: lineax's structure check rejects the
+        # arrays of a `shard_map` (their sharding is part of the structure it compares).
+        return jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(matrix), rhs)
 
     return solve_at(fractions * (N if closed else N - 1))
