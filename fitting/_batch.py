@@ -1,7 +1,7 @@
 """[`fitting.fit_batch`][]: many outlines, over devices or threads, with one progress line.
 
 Every item is checked on the host (`_checks.prepare`) and padded to one sample-count
-bucket; the stacked batch is split into equal shares, one per device (sharded, SPMD) or,
+bucket; the stacked batch is split into equal shares, one per device (`shard_map`) or,
 on one CPU device, one per thread; each share runs one compiled program that fits its
 items one after another (`lax.map` of `_core.fit_one`).
 """
@@ -9,6 +9,7 @@ items one after another (`lax.map` of `_core.fit_one`).
 import concurrent.futures
 import os
 import warnings
+import zlib
 from typing import Literal
 
 import equinox as eqx
@@ -71,35 +72,38 @@ def _fit_items(targets, weights, counts, steps, scheme, root_smoothing, tol, tot
 
 
 def _batched(targets, weights, counts, steps, scheme, root_smoothing, tol, total, *,
-             objective: Objective, solver, shares: int, progress: bool):
-    """Fit `(devices, per_device, m, d)` targets: `vmap` over the device axis, which the
-    sharding splits (one slice per device), and one item after another within a device.
+             objective: Objective, solver, shares: int, progress: bool, mesh=None):
+    """Fit `(devices, per_device, m, d)` targets: on each device its slice, one item after
+    another (`_fit_items`).
 
-    The vmapped solver loop makes the devices step together (its stopping test is
-    reduced over the device axis), so a device waits for the other's slower item at
-    every `lax.map` iteration, and its `lax.cond`s run both branches. `jax.shard_map`
-    would give each device its own loop, but lineax's structure check rejects the
-    manual-axis shardings it introduces (measured with lineax's Cholesky in the
-    initialisation); to revisit. `shares`: concurrent calls of this program (threads),
-    for the progress line only.
+    With several devices (`mesh`, one axis "batch" over them) the program is a
+    `jax.shard_map`: each device runs its own solver loops on its own items and never
+    waits for another's (no collectives until the results). A `vmap` over the device
+    axis instead made the devices step together (its loops' stopping tests reduced over
+    the axis) and ran both branches of the solver's `lax.cond`s (the global foot-point
+    search) at every step: measured 0.23x the throughput of one device, across two
+    processes. `shares`: concurrent calls of this program (threads), for the progress
+    line only.
     """
-    count = targets.shape[0]
     per_item = eqx.is_array(steps)
+    devices = 1 if mesh is None else mesh.size
 
     def items(t, w, c, k):
-        return _fit_items(t, w, c, k if per_item else steps, scheme, root_smoothing, tol,
-                          total, objective=objective, solver=solver, devices=count * shares,
-                          progress=progress)
-
-    if count == 1:
-        # No vmap for one device: under vmap, the solver's `lax.cond`s (the global
-        # foot-point search that `_curve.track` and `_curve.distances` fall back to)
-        # would run both branches at every step.
-        result = items(targets[0], weights[0], counts[0], steps[0] if per_item else None)
+        # This device's slice (a leading axis of one); results get it back.
+        result = _fit_items(t[0], w[0], c[0], k[0] if per_item else steps, scheme,
+                            root_smoothing, tol, total, objective=objective, solver=solver,
+                            devices=devices * shares, progress=progress)
         return jax.tree.map(lambda x: x[None], result)
-    if per_item:
-        return jax.vmap(items)(targets, weights, counts, steps)
-    return jax.vmap(lambda t, w, c: items(t, w, c, None))(targets, weights, counts)
+
+    limits = steps if per_item else jnp.zeros(targets.shape[:1], jnp.int32)
+    if mesh is None:
+        return items(targets, weights, counts, limits)
+    spec = jax.sharding.PartitionSpec("batch")
+    # check_vma=False: the solver's loops start from constants (the same on every
+    # device) and carry values that differ per device, which the varying-axis check
+    # rejects; there are no collectives inside for it to guard.
+    return jax.shard_map(items, mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False)(
+        targets, weights, counts, limits)
 
 
 # Module level, so that repeated calls with the same shapes and settings reuse the
@@ -144,10 +148,13 @@ def _run_batch(targets, weights, counts, scheme, settings, *, objective, solver,
     steps = arrays.pop() if per_item else max_steps
     total = np.int32(size)
 
+    several = parts > 1 and not threaded
+    mesh = jax.sharding.Mesh(np.array(devices), ("batch",)) if several else None
+
     def program(t, w, c, k, shares=1):
         return _batched_jit(t, w, c, k, scheme, root_smoothing, tol, total,
                             objective=objective, solver=solver, shares=shares,
-                            progress=progress)
+                            progress=progress, mesh=mesh)
 
     if threaded:
         # The same compiled program from `threads` Python threads, one share each: XLA's
@@ -167,13 +174,74 @@ def _run_batch(targets, weights, counts, scheme, settings, *, objective, solver,
     if len(devices) == 1:
         arrays = jax.device_put(arrays, devices[0])
     else:
-        # The device axis is split over the devices; XLA partitions the program (SPMD).
-        mesh = jax.sharding.Mesh(np.array(devices), ("batch",))
+        # The device axis is split over the devices: one slice each (`_batched`).
         sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("batch"))
         arrays = jax.device_put(arrays, sharding)
     result = program(*arrays, steps)
+    if any(d.process_index != jax.process_index() for d in devices):
+        # Devices of other processes hold parts of the result, which this process cannot
+        # read: every process gets the whole (`process_allgather` of the global arrays).
+        from jax.experimental import multihost_utils
+
+        result = jax.tree.map(
+            lambda x: jnp.asarray(multihost_utils.process_allgather(x, tiled=True))
+            if eqx.is_array(x) else x, result)  # fmt: skip
     merge = lambda x: x.reshape((-1,) + x.shape[2:])[:size]
     return jax.tree.map(lambda x: merge(x) if eqx.is_array(x) else x, result)
+
+
+def _fingerprint(targets, weights, counts, scheme, settings, extra) -> np.ndarray:
+    """What every process of a multi-process batch must agree on, as int64s: the batch's
+    shape and a CRC-32 of its samples, weights, counts, the scheme's numbers and the
+    settings. Compared across processes before fitting (`_run_across_processes`)."""
+    numbers = [np.asarray(x) for x in jax.tree.leaves(scheme) if eqx.is_array_like(x)]
+    parts = [np.ascontiguousarray(np.asarray(x)).tobytes()
+             for x in (targets, weights, counts, *numbers, *settings)]
+    parts.append(repr((type(scheme).__name__, extra)).encode())
+    return np.array([*targets.shape, *(zlib.crc32(b) for b in parts)], np.int64)
+
+
+def _run_across_processes(targets, weights, counts, scheme, settings, *, extra, **options):
+    """Fit the stacked batch across the processes of a multi-process JAX program
+    (`jax.distributed.initialize` called in each): process `p` of `P` fits the items
+    `[p k, (p + 1) k)`, `k = ceil(B / P)`, on its own devices (`_run_batch`), and the
+    results are gathered so that every process returns the whole batch's.
+
+    Each process fits its share with no communication until the end, on its own devices
+    or, with one CPU device, from one thread per core (`_run_batch`): one program over
+    all processes' devices (`devices=jax.devices()`) would give each process one device,
+    and so one core, on a CPU. Every process
+    must pass the same batch and settings: checked first (`_fingerprint`), as a mismatch
+    would otherwise give wrong items or hang in the gather. `extra`: settings not in
+    `settings` that change the fit (n, levels, ...), for the check.
+    """
+    # Imported here: only a multi-process batch needs it.
+    from jax.experimental import multihost_utils
+
+    size, processes, me = targets.shape[0], jax.process_count(), jax.process_index()
+    mine = _fingerprint(targets, weights, counts, scheme, settings, extra)
+    every = np.asarray(multihost_utils.process_allgather(mine))
+    differ = [p for p in range(processes) if not np.array_equal(every[p], every[0])]
+    if differ:
+        raise ValueError(
+            f"fit_batch across {processes} processes: process {differ[0]} passed other "
+            "targets, weights or settings than process 0. Every process must call "
+            "`fit_batch` with the same batch; each fits its share and all get every result."
+        )
+    share = -(-size // processes)
+    start, stop = min(me * share, size), min((me + 1) * share, size)
+    # A process without items (fewer items than processes) fits item 0, discarded.
+    part = slice(start, stop) if stop > start else slice(0, 1)
+    result = _run_batch(targets[part], weights[part], counts[part], scheme, settings,
+                        devices=jax.local_devices(), **options)
+    arrays, static = eqx.partition(result, eqx.is_array)
+    fitted = part.stop - part.start
+    grow = lambda x: np.concatenate([x, np.repeat(x[:1], share - fitted, axis=0)])
+    arrays = jax.tree.map(lambda x: grow(np.asarray(x)), arrays)
+    # (P, share, ...) in process order; item p k + j is process p's j-th.
+    gathered = multihost_utils.process_allgather(arrays)
+    merge = lambda x: jnp.asarray(x.reshape((-1,) + x.shape[2:])[:size])
+    return eqx.combine(jax.tree.map(merge, gathered), static)
 
 
 def fit_batch(
@@ -200,11 +268,16 @@ def fit_batch(
 ) -> FitResult:
     """Fit many outlines at once; the same settings as [`fitting.fit`][].
 
-    The batch is split evenly over `devices` (default: all of `jax.devices()`; sharded,
-    SPMD), and each device fits its share one item after another in one compiled loop
-    (`lax.map`), so several devices or hosts scale without code changes (the devices
-    step together: see `_batched`). On one CPU device (JAX's default on a CPU), the
+    The batch is split evenly over `devices` (default: all of `jax.devices()`; one
+    `jax.shard_map` program), and each device fits its share one item after another in
+    its own compiled loop (`lax.map`), without waiting for the others, so several
+    devices scale without code changes. On one CPU device (JAX's default on a CPU), the
     batch is instead split into `threads` shares fitted concurrently, one per core.
+    In a program of several processes (`jax.distributed.initialize` in each, on one
+    machine or many), call `fit_batch` with the same batch and settings in every
+    process: with `devices=None` each process fits its contiguous share on its own
+    devices (as above) without waiting for the others, and every process returns the
+    whole batch's result (checked: a process that passes another batch raises).
     One item that
     fails does not spoil the others: see `result.converged[i]` and `result.message[i]`.
     Items whose samples are not finite get the status `nonfinite_input`; items that are
@@ -223,7 +296,9 @@ def fit_batch(
       lengths (padded internally with zero-weight samples).
     - `weights`: `None`, an array `(B, m)`, or a list of `(m_i,)` arrays.
     - `max_steps`: solver step limit per item (default 200).
-    - `devices`: the devices to split the batch over.
+    - `devices`: the devices to split the batch over (default: this process's devices,
+      or, with several processes, each process its own; devices of several processes
+      make one program across them instead, one device per process on CPUs).
     - `threads`: with a single CPU device, the batch is split into this many equal shares,
       fitted concurrently by one compiled program from as many threads (default: the
       CPU cores available to this process; 1.75x a single share's throughput measured
@@ -265,6 +340,10 @@ def fit_batch(
             f"`fit_batch(targets=...)` mixes points of dimensions {dims}; fit each "
             "dimension in its own batch."
         )
+    # Several processes (`jax.distributed`), no devices given, concrete data: each
+    # process fits its share on its own devices (`_run_across_processes`).
+    split_processes = (devices is None and jax.process_count() > 1
+                       and not any(is_traced(t) for t in items))
     devices = jax.devices() if devices is None else list(devices)
     if not devices:
         raise ValueError("`fit_batch(devices=...)` is empty; pass None for all devices.")
@@ -318,13 +397,17 @@ def fit_batch(
     own = make_solver(solver, tol, tol, progress)
     if progress:
         _progress.begin()
-    result = _run_batch(
-        stacked, stacked_weights, counts, scheme,
-        traced_settings(smoothing, tol, max_steps, stacked.dtype, own is None),
-        objective=objective, solver=own, progress=progress, devices=devices,
-        threads=_available_cores() if threads is None else static_int(threads, "threads",
-                                                                         minimum=1),
-    )
+    settings = traced_settings(smoothing, tol, max_steps, stacked.dtype, own is None)
+    options = dict(objective=objective, solver=own, progress=progress,
+                   threads=_available_cores() if threads is None
+                   else static_int(threads, "threads", minimum=1))
+    if split_processes:
+        extra = (n, levels, boundary, pin_ends, names, values, ordered, type(solver).__name__)
+        result = _run_across_processes(stacked, stacked_weights, counts, scheme, settings,
+                                       extra=extra, **options)
+    else:
+        result = _run_batch(stacked, stacked_weights, counts, scheme, settings,
+                            devices=devices, **options)
     if progress:
         jax.block_until_ready(result)
         _progress.finish()
