@@ -4,6 +4,7 @@ against the batch size, and a fit's solve and error measurement (issue #16).
     python benchmarks/bench_fit_batch.py                  # about 5 minutes
     python benchmarks/bench_fit_batch.py --before 68c689d # and a git revision, one run
     python benchmarks/bench_fit_batch.py --smoke          # seconds, for CI
+    python benchmarks/bench_fit_batch.py --processes-only # part 3 alone, 2 minutes
 
 Two parts, each on closed cubic B-spline fits at n = 16 of 400-sample outlines (the
 glyphs 'S' and 'a' and a superellipse, perturbed as in `bench_fit.py`), float64:
@@ -22,6 +23,11 @@ glyphs 'S' and 'a' and a superellipse, perturbed as in `bench_fit.py`), float64:
    interpreters, alternating round by round, and both fit 600 outlines at n = 16 and
    32 once, to compare their errors (a change of the search may lead a fit to another
    local minimum: the distribution of the ratios says whether it is better or worse).
+
+3. **Across processes.** `fitting.fit_batch` of the same 200 outlines in one process
+   (one thread, two threads) and in two processes joined by `jax.distributed` on this
+   machine: each fitting its share (the default), or one program over both
+   processes' devices; fits per second and the results' difference from one process.
 
 Results: `results/fit_batch.{json,md}`.
 """
@@ -84,6 +90,45 @@ if int(sys.argv[5]):  # the batch's errors at n = 16 and 32, for comparing versi
 print(json.dumps(dict(fit_seconds=loop, measure_seconds=statistics.median(times),
                       batch_fits_per_second=batch / batch_time,
                       rms=[float(x) for x in result.rms[:count]], quality=quality)))
+"""
+
+#: Part 3, one process of a run: `<tree> <benchmarks> <process> <processes> <port> <batch>
+#: <threads> <mode>`; mode "split" (fit_batch's default across processes) or "spmd" (all
+#: devices given).
+PROCESSES = r"""
+import json, sys, time
+process, processes, port, batch, threads, mode = sys.argv[3:9]
+process, processes, batch, threads = int(process), int(processes), int(batch), int(threads)
+sys.path.insert(0, sys.argv[1]); sys.path.insert(1, sys.argv[2])
+import jax, numpy as np
+jax.config.update("jax_enable_x64", True)
+if processes > 1:
+    jax.distributed.initialize(coordinator_address=f"localhost:{port}",
+                               num_processes=processes, process_id=process,
+                               initialization_timeout=300)
+    from jax.experimental import multihost_utils
+import jaxsubdiv as js, fitting
+from bench_fit import perturbed_outlines, glyph_outline, superellipse
+targets = perturbed_outlines([glyph_outline("S"), glyph_outline("a"), superellipse()], batch)
+devices = jax.devices() if mode == "spmd" else None
+call = lambda: fitting.fit_batch(targets, js.CubicBSpline(), 16, threads=threads,
+                                 devices=devices, on_failure="ignore")
+jax.block_until_ready(call().rms)  # compile
+times = []
+for _ in range(3):
+    if processes > 1:
+        multihost_utils.sync_global_devices("start")  # all processes start together
+    start = time.perf_counter()
+    result = call()
+    control, rms = result.control_points, result.rms
+    if processes > 1 and not control.is_fully_addressable:  # older versions: not gathered
+        control, rms = (multihost_utils.process_allgather(x, tiled=True) for x in (control, rms))
+    control, rms = np.asarray(control), np.asarray(rms)  # on this process's host
+    times.append(time.perf_counter() - start)
+if processes > 1:
+    jax.distributed.shutdown()
+print(json.dumps(dict(seconds=sorted(times)[1], control=control.tolist(),
+                      rms=rms.tolist())))
 """
 
 
@@ -176,6 +221,57 @@ def programs(versions, rounds, count, batch, quality):
     return out
 
 
+def processes(batch, before=None):
+    """Part 3: `fit_batch` of `batch` outlines, warm (the median of 3 calls), in one
+    process and across two (`jax.distributed`, a local coordinator), with each
+    configuration's largest control-point difference from one process on one thread.
+    `before`: `(tree, name)` of another version, whose one program over both processes'
+    devices is measured too."""
+    import socket
+    import subprocess
+
+    configurations = [  # (name, tree, processes, threads per process, mode)
+        ("1 process, 1 thread", ROOT, 1, 1, "split"),
+        ("1 process, 2 threads (default)", ROOT, 1, 2, "split"),
+        ("2 processes, 1 thread each (default split)", ROOT, 2, 1, "split"),
+        ("2 processes, one program over both devices (devices=jax.devices())", ROOT, 2, 1,
+         "spmd"),
+    ]
+    if before:
+        configurations.append((f"the same, {before[1]}", before[0], 2, 1, "spmd"))
+    rows, reference, reference_rms = [], None, None
+    for name, tree, count, threads, mode in configurations:
+        with socket.socket() as free:
+            free.bind(("localhost", 0))
+            port = str(free.getsockname()[1])
+        runs = [subprocess.Popen(
+            [sys.executable, "-c", PROCESSES, str(tree), str(ROOT / "benchmarks"), str(p),
+             str(count), port, str(batch), str(threads), mode],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+            env={**__import__("os").environ, "JAX_PLATFORMS": "cpu"},
+        ) for p in range(count)]  # fmt: skip
+        outs = []
+        for run in runs:
+            out, err = run.communicate(timeout=3600)
+            if run.returncode:
+                raise RuntimeError(f"{name} failed:\n{err[-3000:]}")
+            outs.append(json.loads(out.strip().splitlines()[-1]))
+        seconds = max(o["seconds"] for o in outs)  # the batch is done when all are
+        control, rms = np.asarray(outs[0]["control"]), np.asarray(outs[0]["rms"])
+        if reference is None:
+            reference, reference_rms = control, rms
+        # Per item: the largest control-point difference, and the RMS ratio.
+        differences = np.max(np.abs(control - reference), axis=(1, 2))
+        ratios = rms / reference_rms
+        rows.append(dict(configuration=name, seconds=seconds, fits_per_second=batch / seconds,
+                         difference=float(differences.max()),
+                         items_differing=int(np.sum(differences > 1e-4)),
+                         rms_ratio=[float(ratios.min()), float(ratios.max())]))
+        print(f"{name}: {batch / seconds:.1f} fits/s, control points differ from one "
+              f"process by {differences.max():.1e}", flush=True)
+    return rows
+
+
 def markdown(report) -> str:
     lines = [
         "# Where a batched fit's time goes (issue #16)",
@@ -230,7 +326,38 @@ def markdown(report) -> str:
                   f"fit_batch throughput {ratio('batch_fits_per_second'):.2f}. Largest "
                   "relative difference of the first outlines' RMS between the versions: "
                   f"{report['rms_difference']:.1e}."]
+    if report.get("processes"):
+        lines += processes_table(report)
     return "\n".join(lines) + "\n"
+
+
+def processes_table(report) -> list[str]:
+    first = report["processes"][0]["fits_per_second"]
+    lines = ["", f"## Across processes: `fit_batch` of {report['batch']} outlines (warm, "
+             "median of 3)", "",
+             "Against 1 process, 1 thread, per item: the largest control-point difference, "
+             "the items whose control points differ by more than 1e-4 (a fit that rounds "
+             "differently may stop in another local minimum), and the range of the RMS "
+             "ratios.", "",
+             "| configuration | fits/s | / 1 process, 1 thread | control points: largest "
+             "difference | items > 1e-4 | RMS ratio (min, max) |",
+             "| --- | ---: | ---: | ---: | ---: | --- |"]
+    for r in report["processes"]:
+        low, high = r["rms_ratio"]
+        lines.append(f"| {r['configuration']} | {r['fits_per_second']:.1f} | "
+                     f"{r['fits_per_second'] / first:.2f} | {r['difference']:.1e} | "
+                     f"{r['items_differing']} | {low:.4f}, {high:.4f} |")
+    return lines
+
+
+def processes_markdown(report) -> str:
+    lines = ["# `fit_batch` across processes (issue #16)", "",
+             f"{report['date']}, {report['machine']}, load {report['load_start']} at the start "
+             f"and {report['load_end']} at the end (1, 5, 15 min). Closed cubic B-spline, "
+             "n = 16, 400-sample outlines, float64; two processes joined by "
+             "`jax.distributed` on this machine (a local coordinator); "
+             "`benchmarks/bench_fit_batch.py --processes-only`."]
+    return "\n".join(lines + processes_table(report)) + "\n"
 
 
 def main():
@@ -240,8 +367,12 @@ def main():
     parser.add_argument("--smoke", action="store_true", help="a small run, for CI")
     parser.add_argument("--before", help="a git revision to measure too, in the same run")
     parser.add_argument("--output", type=pathlib.Path, default=None, help="JSON path")
+    parser.add_argument("--processes-only", action="store_true",
+                        help="part 3 alone, to results/fit_batch_processes.{json,md}")
     args = parser.parse_args()
     name = "fit_batch_smoke" if args.smoke else "fit_batch"
+    if args.processes_only:
+        name += "_processes"
     output = args.output or RESULTS / f"{name}.json"
     output.parent.mkdir(parents=True, exist_ok=True)
     from bench_analysis import _commit, _extract
@@ -256,6 +387,16 @@ def main():
         quality = 600
     report["sizes"], report["batch"], report["loop_count"] = list(sizes), batch, count
     report["quality"] = quality
+    if args.processes_only:
+        with tempfile.TemporaryDirectory() as tmp:
+            before = args.before and (_extract(args.before, pathlib.Path(tmp)),
+                                      f"before ({_commit(args.before)})")
+            report["processes"] = processes(batch, before or None)
+        report["load_end"] = load()
+        output.write_text(json.dumps(report, indent=2))
+        output.with_suffix(".md").write_text(processes_markdown(report))
+        print(output.with_suffix(".md").read_text())
+        return
     report["steps"] = step_parts(sizes, global_sizes, repeats)
     with tempfile.TemporaryDirectory() as tmp:
         versions = {"after": (ROOT, _commit("HEAD") + "+worktree")}
@@ -264,6 +405,7 @@ def main():
                                    _commit(args.before)), **versions}
         report["versions"] = {k: v[1] for k, v in versions.items()}
         report["programs"] = programs(versions, rounds, count, batch, quality)
+    report["processes"] = processes(batch)
     if args.before:
         rms = [np.asarray(r["rms"]) for r in (report["programs"]["before"][0],
                                                 report["programs"]["after"][0])]
