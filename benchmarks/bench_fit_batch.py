@@ -29,7 +29,9 @@ glyphs 'S' and 'a' and a superellipse, perturbed as in `bench_fit.py`), float64:
    machine: each fitting its share (the default), or one program over both
    processes' devices; fits per second and the results' difference from one process.
 
-Results: `results/fit_batch.{json,md}`.
+Results: `results/fit_batch.{json,md}`; part 3 alone (`--processes-only`, with `--before`
+that revision's program over both processes' devices too):
+`results/fit_batch_processes.{json,md}`.
 """
 
 import json
