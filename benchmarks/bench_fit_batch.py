@@ -178,6 +178,9 @@ def step_parts(sizes, global_sizes, repeats):
             lambda y, t, w, f, g, h: objective.feet(y, data(t, w)), global_sizes),
         "model": (lambda y, t, w, f, g, h: objective.quadratic_model(y, data(t, w), f), sizes),
         "damped Cholesky step": (lambda y, t, w, f, g, h: damped_step(h, g, 1e-3), sizes),
+        # A program that returns its input: the cost of one call from Python, which every
+        # figure above includes once per batch (inside the solver's loop there is none).
+        "a call of an empty program": (lambda y, t, w, f, g, h: g, sizes),
     }
     inputs = (starts, scaled, scaled_weights, feet, gradients, hessians)
     rows = []
@@ -283,6 +286,10 @@ def markdown(report) -> str:
         "400-sample outlines (bucket 512), float64; `benchmarks/bench_fit_batch.py`.",
         "",
         "## A step's parts: per-item cost against the batch size (`vmap`, warm, median)",
+        "",
+        "Each figure is one jitted call's time divided by the batch size, so it includes "
+        "one call from Python per batch: the last row, a program that returns its input, "
+        "measures that cost (inside the solver's loop there is none).",
         "",
         "| part | " + " | ".join(f"{b:,}" for b in report["sizes"]) + " |",
         "| --- | " + " | ".join("---:" for _ in report["sizes"]) + " |",
