@@ -203,7 +203,43 @@ def step_parts(sizes, global_sizes, repeats):
             per_item = statistics.median(times) / batch
             rows.append(dict(part=name, batch=batch, ms_per_item=1e3 * per_item))
             print(f"{name:28s} batch {batch:6d}: {1e3 * per_item:.4f} ms per item", flush=True)
+            if batch == 1:
+                looped = 1e3 * in_a_loop(part, args, repeats)
+                rows.append(dict(part=name, batch="loop", ms_per_item=looped))
+                print(f"{name:28s} in a loop:    {looped:.4f} ms per item", flush=True)
     return rows
+
+
+def in_a_loop(part, args, repeats, count=20):
+    """Median seconds of one call of `part` inside a compiled loop of `count` (as the
+    solver calls its parts), without a call from Python each. Each iteration's inputs
+    depend on the previous outputs (by a 1e-300 multiple of their sum), so that XLA can
+    neither hoist any of the part's work out of the loop nor drop it."""
+    import jax
+    import jax.numpy as jnp
+
+    dtype = jax.tree.leaves(args[0])[0].dtype
+
+    def loop(*args):  # arguments, not constants, so that XLA folds nothing
+        def body(_, carry):
+            # Every input depends on the loop's carry: nothing is loop-invariant.
+            moved = jax.tree.map(
+                lambda x: x + (carry * 1e-300).astype(x.dtype)
+                if jnp.issubdtype(x.dtype, jnp.inexact) else x, args)  # fmt: skip
+            out = part(*moved)
+            # Every output is used (XLA would drop the work of an unused one).
+            return sum(jnp.sum(x).astype(dtype) for x in jax.tree.leaves(out))
+
+        return jax.lax.fori_loop(0, count, body, jnp.zeros((), dtype))
+
+    call = jax.jit(loop)
+    jax.block_until_ready(call(*args))
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        jax.block_until_ready(call(*args))
+        times.append(time.perf_counter() - start)
+    return statistics.median(times) / count
 
 
 def programs(versions, rounds, count, batch, quality):
@@ -289,15 +325,17 @@ def markdown(report) -> str:
         "",
         "Each figure is one jitted call's time divided by the batch size, so it includes "
         "one call from Python per batch: the last row, a program that returns its input, "
-        "measures that cost (inside the solver's loop there is none).",
+        "measures that cost. \"1, in a loop\": one item's part called 20 times inside "
+        "one compiled loop, as the solver calls it, per call: the cost of a single fit's "
+        "step part.",
         "",
-        "| part | " + " | ".join(f"{b:,}" for b in report["sizes"]) + " |",
-        "| --- | " + " | ".join("---:" for _ in report["sizes"]) + " |",
+        "| part | 1, in a loop | " + " | ".join(f"{b:,}" for b in report["sizes"]) + " |",
+        "| --- | ---: | " + " | ".join("---:" for _ in report["sizes"]) + " |",
     ]
     for part in dict.fromkeys(r["part"] for r in report["steps"]):
         cells = {r["batch"]: f"{r['ms_per_item']:.3f}" for r in report["steps"]
                  if r["part"] == part}
-        lines.append(f"| {part} (ms per item) | "
+        lines.append(f"| {part} (ms per item) | {cells.get('loop', '')} | "
                      + " | ".join(cells.get(b, "") for b in report["sizes"]) + " |")
     lines += ["", "## A fit's two programs and the batch (warm)", "",
               f"`fit`: a loop over {report['loop_count']} outlines, per outline; its error "
