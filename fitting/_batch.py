@@ -7,9 +7,10 @@ items one after another (`lax.map` of `_core.fit_one`).
 """
 
 import concurrent.futures
+import hashlib
 import os
+import re
 import warnings
-import zlib
 from typing import Literal
 
 import equinox as eqx
@@ -53,7 +54,8 @@ def _fit_items(targets, weights, counts, steps, scheme, root_smoothing, tol, tot
     slower per item on CPU; measured 1.9x slower than a Python loop of single fits (64
     items), where `lax.map` matches the loop with one dispatch for the whole batch.
     `steps`: each item's step limit `(k,)`, or one static int for optimistix's solvers;
-    `total`: the number of real items in the whole batch (for the progress line).
+    `total`: the number of real items in this call's batch (this process's share, with
+    several processes), for the progress line.
     """
     per_item = eqx.is_array(steps)
 
@@ -78,12 +80,14 @@ def _batched(targets, weights, counts, steps, scheme, root_smoothing, tol, total
 
     With several devices (`mesh`, one axis "batch" over them) the program is a
     `jax.shard_map`: each device runs its own solver loops on its own items and never
-    waits for another's (no collectives until the results). A `vmap` over the device
+    waits for another's (the program has no collectives). A `vmap` over the device
     axis instead made the devices step together (its loops' stopping tests reduced over
     the axis) and ran both branches of the solver's `lax.cond`s (the global foot-point
-    search) at every step: measured 0.23x the throughput of one device, across two
-    processes. `shares`: concurrent calls of this program (threads), for the progress
-    line only.
+    search) at every step: measured 0.24x the throughput of one device, across two
+    processes. That `vmap` remains for optimistix's own solvers (`solver` not None):
+    lineax, which they solve with, rejects the arrays of a `shard_map` (their sharding
+    is part of the structure it compares). `shares`: concurrent calls of this program
+    (threads), for the progress line only.
     """
     per_item = eqx.is_array(steps)
     devices = 1 if mesh is None else mesh.size
@@ -98,6 +102,9 @@ def _batched(targets, weights, counts, steps, scheme, root_smoothing, tol, total
     limits = steps if per_item else jnp.zeros(targets.shape[:1], jnp.int32)
     if mesh is None:
         return items(targets, weights, counts, limits)
+    if solver is not None:
+        return jax.vmap(lambda *x: jax.tree.map(lambda y: y[0], items(*(z[None] for z in x))))(
+            targets, weights, counts, limits)
     spec = jax.sharding.PartitionSpec("batch")
     # check_vma=False: the solver's loops start from constants (the same on every
     # device) and carry values that differ per device, which the varying-axis check
@@ -178,9 +185,11 @@ def _run_batch(targets, weights, counts, scheme, settings, *, objective, solver,
         sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("batch"))
         arrays = jax.device_put(arrays, sharding)
     result = program(*arrays, steps)
-    if any(d.process_index != jax.process_index() for d in devices):
+    if not is_traced(targets) and any(d.process_index != jax.process_index()
+                                      for d in devices):
         # Devices of other processes hold parts of the result, which this process cannot
         # read: every process gets the whole (`process_allgather` of the global arrays).
+        # Inside a trace the caller's program holds the global arrays instead.
         from jax.experimental import multihost_utils
 
         result = jax.tree.map(
@@ -190,57 +199,88 @@ def _run_batch(targets, weights, counts, scheme, settings, *, objective, solver,
     return jax.tree.map(lambda x: merge(x) if eqx.is_array(x) else x, result)
 
 
-def _fingerprint(targets, weights, counts, scheme, settings, extra) -> np.ndarray:
-    """What every process of a multi-process batch must agree on, as int64s: the batch's
-    shape and a CRC-32 of its samples, weights, counts, the scheme's numbers and the
-    settings. Compared across processes before fitting (`_run_across_processes`)."""
-    numbers = [np.asarray(x) for x in jax.tree.leaves(scheme) if eqx.is_array_like(x)]
-    parts = [np.ascontiguousarray(np.asarray(x)).tobytes()
-             for x in (targets, weights, counts, *numbers, *settings)]
-    parts.append(repr((type(scheme).__name__, extra)).encode())
-    return np.array([*targets.shape, *(zlib.crc32(b) for b in parts)], np.int64)
+def _fingerprint(targets, weights, counts, modules, settings, extra) -> np.ndarray:
+    """What every process of a multi-process batch must agree on: a BLAKE2b digest of the
+    batch's samples, weights and counts (with their shapes and dtypes), the `modules`
+    (the scheme, an optimistix solver: their types, static fields and numbers) and the
+    settings, as 8 uint32 words (a fixed size, so that the gather that compares them
+    works whatever differs). Compared across processes before fitting
+    (`_run_across_processes`)."""
+    digest = hashlib.blake2b(digest_size=32)
+    numbers, static = eqx.partition(modules, eqx.is_array)
+    # The static part's description (types and static fields), without memory addresses
+    # (a function's repr holds one, which differs between processes).
+    described = re.sub(r" at 0x[0-9a-f]+", "", str(jax.tree.structure(static)))
+    digest.update(repr((described, extra)).encode())
+    for x in (targets, weights, counts, *jax.tree.leaves(numbers), *settings):
+        x = np.ascontiguousarray(np.asarray(x))
+        digest.update(repr((x.shape, x.dtype.str)).encode())
+        digest.update(x)  # the buffer itself: no copy of the batch
+    return np.frombuffer(digest.digest(), np.uint32).copy()
 
 
-def _run_across_processes(targets, weights, counts, scheme, settings, *, extra, **options):
+def _run_across_processes(targets, weights, counts, scheme, settings, *, extra,
+                          **options):
     """Fit the stacked batch across the processes of a multi-process JAX program
     (`jax.distributed.initialize` called in each): process `p` of `P` fits the items
     `[p k, (p + 1) k)`, `k = ceil(B / P)`, on its own devices (`_run_batch`), and the
-    results are gathered so that every process returns the whole batch's.
+    results are gathered so that every process returns the whole batch's (and holds it:
+    on each of its devices, as `process_allgather` leaves it).
 
     Each process fits its share with no communication until the end, on its own devices
     or, with one CPU device, from one thread per core (`_run_batch`): one program over
     all processes' devices (`devices=jax.devices()`) would give each process one device,
-    and so one core, on a CPU. Every process
-    must pass the same batch and settings: checked first (`_fingerprint`), as a mismatch
-    would otherwise give wrong items or hang in the gather. `extra`: settings not in
-    `settings` that change the fit (n, levels, ...), for the check.
+    and so one core, on a CPU. Every process must call `fit_batch` with the same batch
+    and settings (three gathers are collectives): checked first (`_fingerprint`), as a
+    mismatch would otherwise give wrong items; a process whose fit raises makes every
+    process raise, instead of leaving the others waiting in the last gather. `extra`:
+    settings not in `settings` that change the fit (n, levels, solver, ...).
     """
     # Imported here: only a multi-process batch needs it.
     from jax.experimental import multihost_utils
 
     size, processes, me = targets.shape[0], jax.process_count(), jax.process_index()
-    mine = _fingerprint(targets, weights, counts, scheme, settings, extra)
-    every = np.asarray(multihost_utils.process_allgather(mine))
+    mine = _fingerprint(targets, weights, counts, (scheme, options["solver"]), settings,
+                        extra)
+    every = np.asarray(multihost_utils.process_allgather(
+        np.concatenate([np.array([me], np.uint32), mine])))  # fmt: skip
+    # The gathers' rows follow the devices' order; put them in process order.
+    order = np.argsort(every[:, 0], kind="stable")
+    every = every[order, 1:]
     differ = [p for p in range(processes) if not np.array_equal(every[p], every[0])]
     if differ:
         raise ValueError(
             f"fit_batch across {processes} processes: process {differ[0]} passed other "
             "targets, weights or settings than process 0. Every process must call "
-            "`fit_batch` with the same batch; each fits its share and all get every result."
+            "`fit_batch` with the same batch; each fits its share and all get every "
+            "result. (To fit a different batch in each process, pass "
+            "`devices=jax.local_devices()`.)"
         )
     share = -(-size // processes)
     start, stop = min(me * share, size), min((me + 1) * share, size)
     # A process without items (fewer items than processes) fits item 0, discarded.
     part = slice(start, stop) if stop > start else slice(0, 1)
-    result = _run_batch(targets[part], weights[part], counts[part], scheme, settings,
-                        devices=jax.local_devices(), **options)
+    try:
+        result, error = _run_batch(targets[part], weights[part], counts[part], scheme,
+                                   settings, devices=jax.local_devices(), **options), None
+    except Exception as raised:  # re-raised below, after telling the other processes
+        result, error = None, raised
+    failed = np.asarray(multihost_utils.process_allgather(np.int32(error is not None)))
+    if error is not None:
+        raise error
+    if failed.any():
+        raise RuntimeError(
+            f"fit_batch across {processes} processes: process "
+            f"{int(np.flatnonzero(failed[order])[0])} failed while fitting its share; "
+            "its own error says why."
+        )
     arrays, static = eqx.partition(result, eqx.is_array)
     fitted = part.stop - part.start
     grow = lambda x: np.concatenate([x, np.repeat(x[:1], share - fitted, axis=0)])
     arrays = jax.tree.map(lambda x: grow(np.asarray(x)), arrays)
-    # (P, share, ...) in process order; item p k + j is process p's j-th.
+    # (P, share, ...); in process order, item p k + j is process p's j-th.
     gathered = multihost_utils.process_allgather(arrays)
-    merge = lambda x: jnp.asarray(x.reshape((-1,) + x.shape[2:])[:size])
+    merge = lambda x: jnp.asarray(x[order].reshape((-1,) + x.shape[2:])[:size])
     return eqx.combine(jax.tree.map(merge, gathered), static)
 
 
@@ -303,7 +343,8 @@ def fit_batch(
       fitted concurrently by one compiled program from as many threads (default: the
       CPU cores available to this process; 1.75x a single share's throughput measured
       on 2 cores). Results do not depend on it.
-    - `progress`: one line on stderr for the whole batch, counting outlines done.
+    - `progress`: one line on stderr for the whole batch, counting outlines done (with
+      several processes, each shows its own share's).
     - `memory_budget`: as for `fit`, checked per outline (one outline is fitted at a
       time in each thread or device, so the batch needs up to that many times it).
     - others: as for [`fitting.fit`][].
@@ -340,10 +381,7 @@ def fit_batch(
             f"`fit_batch(targets=...)` mixes points of dimensions {dims}; fit each "
             "dimension in its own batch."
         )
-    # Several processes (`jax.distributed`), no devices given, concrete data: each
-    # process fits its share on its own devices (`_run_across_processes`).
-    split_processes = (devices is None and jax.process_count() > 1
-                       and not any(is_traced(t) for t in items))
+    several_processes = devices is None and jax.process_count() > 1
     devices = jax.devices() if devices is None else list(devices)
     if not devices:
         raise ValueError("`fit_batch(devices=...)` is empty; pass None for all devices.")
@@ -401,8 +439,14 @@ def fit_batch(
     options = dict(objective=objective, solver=own, progress=progress,
                    threads=_available_cores() if threads is None
                    else static_int(threads, "threads", minimum=1))
-    if split_processes:
-        extra = (n, levels, boundary, pin_ends, names, values, ordered, type(solver).__name__)
+    # Several processes (`jax.distributed`), no devices given, nothing traced: each
+    # process fits its share on its own devices (`_run_across_processes`).
+    if several_processes and not any(
+        is_traced(x) for x in jax.tree.leaves((stacked, stacked_weights, scheme, settings))
+    ):
+        extra = (n, levels, boundary, pin_ends, names, repr(values), ordered,
+                 "levenberg-marquardt" if solver is None else
+                 solver if isinstance(solver, str) else "instance")
         result = _run_across_processes(stacked, stacked_weights, counts, scheme, settings,
                                        extra=extra, **options)
     else:

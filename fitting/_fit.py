@@ -64,7 +64,7 @@ def fit(
     Gauss-Newton-type solvers converge fast instead of alternating slowly.
 
     How: the samples are centered and scaled to unit size; control points start from a
-    linear least-squares fit at chord-length positions (lineax Cholesky); then a
+    linear least-squares fit at chord-length positions (a Cholesky factorization); then a
     Levenberg-Marquardt iteration minimises the squared distances from the samples to
     the limit curve plus a weak curve-to-samples term (see `fitting._objective`). The
     curve is sampled exactly at the dyadic parameters of `levels` levels (see
