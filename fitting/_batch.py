@@ -92,19 +92,21 @@ def _batched(targets, weights, counts, steps, scheme, root_smoothing, tol, total
     per_item = eqx.is_array(steps)
     devices = 1 if mesh is None else mesh.size
 
-    def items(t, w, c, k):
-        # This device's slice (a leading axis of one); results get it back.
-        result = _fit_items(t[0], w[0], c[0], k[0] if per_item else steps, scheme,
-                            root_smoothing, tol, total, objective=objective, solver=solver,
-                            devices=devices * shares, progress=progress)
+    def one_device(t, w, c, k):
+        return _fit_items(t, w, c, k if per_item else steps, scheme, root_smoothing, tol,
+                          total, objective=objective, solver=solver,
+                          devices=devices * shares, progress=progress)
+
+    def items(*arrays):
+        # A device's slice, with its leading axis of one; the results get it back.
+        result = one_device(*(x[0] for x in arrays))
         return jax.tree.map(lambda x: x[None], result)
 
     limits = steps if per_item else jnp.zeros(targets.shape[:1], jnp.int32)
     if mesh is None:
         return items(targets, weights, counts, limits)
     if solver is not None:
-        return jax.vmap(lambda *x: jax.tree.map(lambda y: y[0], items(*(z[None] for z in x))))(
-            targets, weights, counts, limits)
+        return jax.vmap(one_device)(targets, weights, counts, limits)
     spec = jax.sharding.PartitionSpec("batch")
     # check_vma=False: the solver's loops start from constants (the same on every
     # device) and carry values that differ per device, which the varying-axis check
