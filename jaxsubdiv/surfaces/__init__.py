@@ -8,6 +8,7 @@ vmappable, and the tables are reused for every call on the same mesh.
 from ._base import AbstractSurfaceScheme as AbstractSurfaceScheme
 from ._catmull_clark import CatmullClark as CatmullClark
 from ._doo_sabin import DooSabin as DooSabin
+from ._evaluate import SurfacePoints as SurfacePoints
 from ._face_varying import FaceVarying as FaceVarying
 from ._io import read_mesh as read_mesh, read_uvs as read_uvs, write_mesh as write_mesh
 from ._loop import Loop as Loop

@@ -1,0 +1,572 @@
+"""The limit surface anywhere: position and derivatives at (face, u, v), as stencil tables.
+
+Catmull-Clark's limit over a quad whose corners are regular is the bicubic uniform
+B-spline patch of the 16 vertices around it; sharp sides (boundary or crease edges) and
+corners are the same patch with phantom points mirrored across the side (the tensor
+product of the cubic B-spline end rule), which reproduces the crease and corner rules
+exactly. Everywhere else the face is refined: the sub-face containing the point is
+regular after a few levels unless the point is an extraordinary vertex, a dart, a crease
+end or another irregular vertex itself. Refinement is local: a sub-face's limit depends
+only on its 1-ring (the faces sharing a vertex with it), so each level refines the
+disjoint union of the 1-rings of the sub-faces still holding points, one vectorized
+numpy level for all of them. This is the evaluation OpenSubdiv's patch tables make
+(adaptive refinement to regular patches); every point becomes a row of weights on the
+base vertices, so evaluation is one stencil kernel, differentiable and batched.
+
+Reference: J. Stam, "Exact evaluation of Catmull-Clark subdivision surfaces at
+arbitrary parameter values", SIGGRAPH 1998, §2-3 (the same limit, reached here by
+refinement instead of the eigenbasis); OpenSubdiv's `Far::PatchTable` documentation
+(phantom points for boundary patches).
+"""
+
+import dataclasses
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float, Int
+
+from .._misc import DEFAULT_MEMORY_BUDGET, as_float_array, checked_budget, static_int
+from ._base import AbstractSurfaceScheme
+from ._catmull_clark import CatmullClark
+from ._mesh import Mesh
+from ._refine import _check, _check_surface_memory, _level, _safe_normalize
+from ._stencil import Sparse, StencilTable, _ranks
+from ._topology import CORNER, CREASE, SMOOTH, Topology, build_topology, flatten_faces
+
+
+# Rows of the local weights: position, then d/du, d/dv, d2/du2, d2/dudv, d2/dv2.
+_KINDS = 6
+
+# The quadrant a point of a quad falls in is the child face at that corner; its own
+# (u, v) are `Q @ (u, v) + b` (the child's origin is the parent's corner, its u axis
+# runs to the midpoint of the corner's outgoing edge; see `CatmullClark.level`).
+_QUADRANT_MAP = np.array(
+    [[[2, 0], [0, 2]], [[0, 2], [-2, 0]], [[-2, 0], [0, -2]], [[0, -2], [2, 0]]], np.float64
+)
+_QUADRANT_SHIFT = np.array([[0, 0], [0, 2], [2, 2], [2, 0]], np.float64)
+
+#: Default number of levels a face is refined towards a point before the point, then
+#: within 2^-16 of the face's size of an irregular vertex, is evaluated by the bilinear
+#: interpolation of the limit positions of the last sub-face's corners.
+DEFAULT_MAX_DEPTH = 16
+
+
+@dataclasses.dataclass(frozen=True)
+class _Patches:
+    """A mesh at some level (the whole mesh, or a disjoint union of 1-rings) and its
+    vertices as rows of weights on the base vertices (`None`: the base vertices)."""
+
+    faces: np.ndarray
+    count: int
+    creases: np.ndarray
+    corners: np.ndarray
+    crease_sharpness: np.ndarray
+    corner_sharpness: np.ndarray
+    weights: Sparse | None
+
+    def topology(self, scheme) -> Topology:
+        return build_topology(self.faces, self.count, self.creases, self.corners,
+                              scheme.boundary_corners)  # fmt: skip
+
+    def rows(self, rows: np.ndarray, num_base: int) -> Sparse:
+        """The weights of vertices `rows` on the base vertices."""
+        if self.weights is None:
+            return Sparse.build(np.arange(len(rows)), rows, 1.0, (len(rows), num_base))
+        return self.weights.take_rows(rows)
+
+
+def _cubic_basis(t: np.ndarray) -> np.ndarray:
+    """`(3, 4, n)`: the uniform cubic B-spline basis on the span between its 2nd and 3rd
+    control points, and its first and second derivatives, at `t` in [0, 1]."""
+    s = 1 - t
+    return np.stack([
+        np.stack([s**3, 3 * t**3 - 6 * t**2 + 4, -3 * t**3 + 3 * t**2 + 3 * t + 1, t**3]) / 6,
+        np.stack([-(s**2) / 2, 1.5 * t**2 - 2 * t, -1.5 * t**2 + t + 0.5, t**2 / 2]),
+        np.stack([s, 3 * t - 2, 1 - 3 * t, t]),
+    ])  # fmt: skip
+
+
+def _mirror(basis: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """The basis with the first (`low`) or last (`high`) control point a phantom
+    `2 p_1 - p_2` (`2 p_2 - p_1`): the cubic B-spline end rule on a sharp side."""
+    b = basis.copy()
+    b[:, 1] += np.where(low, 2 * b[:, 0], 0) - np.where(high, b[:, 3], 0)
+    b[:, 2] += np.where(high, 2 * b[:, 3], 0) - np.where(low, b[:, 0], 0)
+    b[:, 0] = np.where(low, 0, b[:, 0])
+    b[:, 3] = np.where(high, 0, b[:, 3])
+    return b
+
+
+def _to_face_frame(local: np.ndarray, jac: np.ndarray) -> np.ndarray:
+    """Local weights `(n, 6, K)` (position, derivatives in the sub-face's (u, v)) to the
+    query face's (u, v), given `jac` `(n, 2, 2)` = d(local)/d(face)."""
+    out = local.copy()
+    grad = local[:, 1:3]  # (n, 2, K)
+    out[:, 1:3] = np.einsum("nba,nbk->nak", jac, grad)
+    hess = np.stack([local[:, [3, 4]], local[:, [4, 5]]], axis=1)  # (n, 2, 2, K)
+    hess = np.einsum("nba,nbdk,ndc->nack", jac, hess, jac)
+    out[:, 3], out[:, 4], out[:, 5] = hess[:, 0, 0], hess[:, 0, 1], hess[:, 1, 1]
+    return out
+
+
+def _irregular_vertices(p: _Patches) -> np.ndarray:
+    """Vertices on a semi-sharp edge or with a semi-sharp corner tag: their rules
+    blend or change with the level, so no fixed patch describes them."""
+    mark = np.zeros(p.count, bool)
+    if len(p.creases):
+        mark[p.creases[np.isfinite(p.crease_sharpness)].reshape(-1)] = True
+    if len(p.corners):
+        mark[p.corners[np.isfinite(p.corner_sharpness)]] = True
+    return mark
+
+
+def _regular_patches(topo: Topology, irregular: np.ndarray, faces: np.ndarray):
+    """Which of `faces` are regular patches, their `(n, 16)` control vertices (row j,
+    column i: the point at u-index i, v-index j; corners at (1,1), (2,1), (2,2), (1,2))
+    and `(n, 4)` sharp sides (side i runs from corner i to corner i + 1).
+
+    A corner is regular when its two sides are smooth and it is a smooth interior
+    vertex of valence 4 in four quads with no sharp edge (no dart); when exactly one
+    side is sharp and it is a crease vertex whose sector holds this face and one more
+    quad; or when both sides are sharp and it is a corner."""
+    quad = topo.sizes[faces] == 4
+    h = topo.offsets[faces][:, None] + np.where(quad[:, None], np.arange(4), 0)
+    corner = topo.origin[h]
+    side = topo.sharp_edge[topo.edge[h]]
+    before = np.roll(side, 1, axis=1)
+    vtype = topo.vertex_type[corner]
+    V = topo.num_vertices
+    nsharp = np.bincount(topo.edges[topo.sharp_edge].reshape(-1), minlength=V)
+    in_quads = np.ones(V, bool)
+    np.logical_and.at(in_quads, topo.origin, topo.sizes[topo.face] == 4)
+    smooth = (
+        (vtype == SMOOTH) & ~topo.boundary_vertex[corner] & (topo.valence[corner] == 4)
+        & (nsharp[corner] == 0) & in_quads[corner]
+    )  # fmt: skip
+    # One sharp side: the quad across the other side must close the sector.
+    twin_next = np.where(side, -1, topo.twin[h])  # across the outgoing side, if smooth
+    twin_prev = np.where(before, -1, topo.twin[topo.prev[h]])
+    safe_next, safe_prev = np.maximum(twin_next, 0), np.maximum(twin_prev, 0)
+    closes_next = topo.sharp_edge[topo.edge[topo.next[safe_next]]] & (
+        topo.sizes[topo.face[safe_next]] == 4
+    )
+    closes_prev = topo.sharp_edge[topo.edge[topo.prev[safe_prev]]] & (
+        topo.sizes[topo.face[safe_prev]] == 4
+    )
+    crease = (vtype == CREASE) & np.where(side, closes_prev, closes_next)
+    ok_corner = np.where(
+        side & before, vtype == CORNER, np.where(side | before, crease, smooth)
+    ) & ~irregular[corner]
+    ok = quad & np.all(ok_corner, axis=1)
+
+    grid = np.repeat(corner[:, :1], 16, axis=1)
+    grid[:, [5, 6, 10, 9]] = corner
+    across = np.maximum(topo.twin[h], 0)
+    near = topo.origin[topo.next[topo.next[across]]]  # next to corner i, across side i
+    far = topo.origin[topo.prev[across]]  # next to corner i + 1, across side i
+    diagonal = topo.origin[topo.prev[np.maximum(topo.twin[topo.next[across]], 0)]]
+    near_slot, far_slot = [4 * 0 + 1, 4 * 1 + 3, 4 * 3 + 2, 4 * 2 + 0], [2, 11, 13, 4]
+    diagonal_slot = [0, 3, 15, 12]
+    for i in range(4):
+        grid[:, near_slot[i]] = np.where(side[:, i], grid[:, near_slot[i]], near[:, i])
+        grid[:, far_slot[i]] = np.where(side[:, i], grid[:, far_slot[i]], far[:, i])
+        both_smooth = ~side[:, i] & ~before[:, i]
+        grid[:, diagonal_slot[i]] = np.where(both_smooth, diagonal[:, i], grid[:, diagonal_slot[i]])
+    return ok, np.where(ok[:, None], grid, 0), side & ok[:, None]
+
+
+def _patch_weights(sides: np.ndarray, uv: np.ndarray, jac: np.ndarray) -> np.ndarray:
+    """`(n, 6, 16)` weights of a regular patch's control points for the position and
+    derivatives at local `uv`, in the query face's frame."""
+    bu = _mirror(_cubic_basis(uv[:, 0]), sides[:, 3], sides[:, 1])  # (3, 4, n)
+    bv = _mirror(_cubic_basis(uv[:, 1]), sides[:, 0], sides[:, 2])
+    orders = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]
+    local = np.stack([np.einsum("in,jn->nji", bu[a], bv[b]).reshape(-1, 16)
+                      for a, b in orders], axis=1)  # fmt: skip
+    return _to_face_frame(local, jac)
+
+
+def _bilinear_weights(uv: np.ndarray, jac: np.ndarray) -> np.ndarray:
+    """`(n, 6, 4)` weights of the four corners' limit points: the bilinear patch's
+    position at `uv`, and its derivatives at the sub-face's centre (secants over the
+    sub-face: at the corner itself the two edges can be parallel, at an interior
+    vertex of valence 2)."""
+    u, v = uv[:, 0], uv[:, 1]
+    n = len(u)
+    local = np.zeros((n, _KINDS, 4))
+    local[:, 0] = np.stack([(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v], 1)
+    local[:, 1] = [-0.5, 0.5, 0.5, -0.5]
+    local[:, 2] = [-0.5, -0.5, 0.5, 0.5]
+    local[:, 4] = [1.0, -1.0, 1.0, -1.0]
+    return _to_face_frame(local, jac)
+
+
+def _rows(weights: np.ndarray, points: np.ndarray, patches: _Patches, queries: np.ndarray,
+          total: int, num_base: int) -> Sparse:  # fmt: skip
+    """Stencil rows `kind * total + query` on the base vertices for local `weights`
+    `(n, 6, K)` of the patch vertices `points` `(n, K)`."""
+    n, _, K = weights.shape
+    used, inverse = np.unique(points, return_inverse=True)
+    local = Sparse.build(
+        np.repeat(np.arange(_KINDS * n), K),
+        np.broadcast_to(inverse.reshape(n, 1, K), (n, _KINDS, K)).transpose(1, 0, 2).reshape(-1),
+        weights.transpose(1, 0, 2).reshape(-1),
+        (_KINDS * n, len(used)),
+    )
+    out = local @ patches.rows(used, num_base)
+    kind, i = out.rows // n, out.rows % n
+    return Sparse(kind * total + queries[i], out.cols, out.weights, (_KINDS * total, num_base))
+
+
+def _one_rings(refined: _Patches, targets: np.ndarray) -> tuple[_Patches, np.ndarray]:
+    """The disjoint union of the 1-rings of the faces `targets` (quads) of `refined`,
+    each ring with its own copies of its vertices and the tags at its target's corners
+    (the only ones the target's limit depends on); and each target's index there."""
+    faces, V = refined.faces, refined.count
+    F = len(faces)
+    flat = faces.reshape(-1)
+    order = np.argsort(flat, kind="stable")
+    start = np.searchsorted(flat[order], np.arange(V + 1))
+    corners = faces[targets]  # (m, 4)
+    m = len(targets)
+    cv = corners.reshape(-1)
+    counts = start[cv + 1] - start[cv]
+    ring = np.repeat(np.repeat(np.arange(m), 4), counts)
+    face = order[np.repeat(start[cv], counts) + _ranks(counts)] // faces.shape[1]
+    keys = np.unique(ring * F + face)
+    ring, face = keys // F, keys % F
+    vkeys = ring[:, None] * V + faces[face]
+    used, inverse = np.unique(vkeys, return_inverse=True)
+    new_faces = inverse.reshape(vkeys.shape)
+    target_index = np.searchsorted(keys, np.arange(m) * F + targets)
+
+    def new_vertex(r, v):
+        return np.searchsorted(used, r * V + v)
+
+    creases, crease_sharpness = np.zeros((0, 2), np.int64), np.zeros(0)
+    if len(refined.creases):
+        ends = refined.creases.reshape(-1)
+        eorder = np.argsort(ends, kind="stable")
+        estart = np.searchsorted(ends[eorder], np.arange(V + 1))
+        ecount = estart[cv + 1] - estart[cv]
+        r = np.repeat(np.repeat(np.arange(m), 4), ecount)
+        c = eorder[np.repeat(estart[cv], ecount) + _ranks(ecount)] // 2
+        key = np.unique(r * len(refined.creases) + c)
+        r, c = key // len(refined.creases), key % len(refined.creases)
+        pairs = refined.creases[c]
+        creases = np.stack([new_vertex(r, pairs[:, 0]), new_vertex(r, pairs[:, 1])], 1)
+        crease_sharpness = refined.crease_sharpness[c]
+    tags, tag_sharpness = np.zeros(0, np.int64), np.zeros(0)
+    if len(refined.corners):
+        index = np.full(V, -1)
+        index[refined.corners] = np.arange(len(refined.corners))
+        r, k = np.nonzero(index[corners] >= 0)
+        tags = new_vertex(r, corners[r, k])
+        tag_sharpness = refined.corner_sharpness[index[corners[r, k]]]
+    weights = refined.weights.take_rows(used % V)
+    rings = _Patches(new_faces, len(used), creases, tags, crease_sharpness, tag_sharpness, weights)
+    return rings, target_index
+
+
+def _refine(scheme, p: _Patches, topo: Topology, num_base: int) -> _Patches:
+    step = _level(scheme, p.faces, p.count, p.creases, p.corners, p.crease_sharpness,
+                  p.corner_sharpness, topo=topo)  # fmt: skip
+    weights = step.stencil if p.weights is None else step.stencil @ p.weights
+    return _Patches(step.faces, step.stencil.shape[0], step.creases, step.corners,
+                    step.crease_sharpness, step.corner_sharpness, weights)  # fmt: skip
+
+
+def _stencils(mesh: Mesh, scheme, face: np.ndarray, uv: np.ndarray, subface: np.ndarray,
+              max_depth: int, budget: float):  # fmt: skip
+    """Rows of position and derivative stencils for every point, whether each was
+    evaluated on a regular patch, and at which level."""
+    N, V0 = len(face), mesh.num_vertices
+    patches = _Patches(mesh.faces, V0, mesh.creases, mesh.corners, mesh.crease_sharpness,
+                       mesh.corner_sharpness, None)  # fmt: skip
+    topo = patches.topology(scheme)
+    blocks, exact, depth = [], np.zeros(N, bool), np.zeros(N, np.int64)
+    cap, capped = Sparse.build([], [], [], (0, V0)), np.zeros(0, np.int64)
+    queries, where, local, sub = np.arange(N), face.copy(), uv.copy(), subface.copy()
+    jac = np.broadcast_to(np.eye(2), (N, 2, 2)).copy()
+    for level in range(max_depth + 1):
+        ok, grid, sides = _regular_patches(topo, _irregular_vertices(patches), where)
+        ok &= sub < 0  # a point on a sub-face of an n-gon starts at level 1
+        if np.any(ok):
+            w = _patch_weights(sides[ok], local[ok], jac[ok])
+            blocks.append(_rows(w, grid[ok], patches, queries[ok], N, V0))
+            exact[queries[ok]], depth[queries[ok]] = True, level
+        rest = ~ok
+        queries, where, local, jac, sub = (a[rest] for a in (queries, where, local, jac, sub))
+        if not len(queries):
+            break
+        if level == max_depth:
+            # Within 2^-max_depth of an irregular vertex: the bilinear patch of the
+            # limit positions of the sub-face's corners.
+            limit = scheme.limit(topo, patches.creases, patches.corners)
+            corners = topo.origin[topo.offsets[where][:, None] + np.arange(4)]
+            used, inverse = np.unique(corners, return_inverse=True)
+            at_corners = limit.position.take_rows(used)
+            if patches.weights is not None:
+                at_corners = at_corners @ patches.weights
+            w = _bilinear_weights(local, jac)
+            at = dataclasses.replace(patches, weights=at_corners)
+            blocks.append(_rows(w, inverse.reshape(-1, 4), at, queries, N, V0))
+            # Normals: the exact limit tangents where the vertex (corner 0 of every
+            # sub-face below level 1) is smooth, the secants elsewhere.
+            K = len(queries)
+            secant = _rows(w, inverse.reshape(-1, 4), at, np.arange(K), K, V0)
+            secant = secant.take_rows(np.arange(K, 3 * K))
+            vertex = corners[:, 0]
+            exact_tangents = Sparse.stack([limit.tangent_u.take_rows(vertex),
+                                           limit.tangent_v.take_rows(vertex)])  # fmt: skip
+            if patches.weights is not None:
+                exact_tangents = exact_tangents @ patches.weights
+            use = np.tile(limit.smooth[vertex], 2)
+            keep_secant, keep_exact = ~use[secant.rows], use[exact_tangents.rows]
+            cap = Sparse.build(
+                np.concatenate([secant.rows[keep_secant], exact_tangents.rows[keep_exact]]),
+                np.concatenate([secant.cols[keep_secant], exact_tangents.cols[keep_exact]]),
+                np.concatenate([secant.weights[keep_secant], exact_tangents.weights[keep_exact]]),
+                (2 * K, V0),
+            )
+            capped = queries
+            depth[queries] = level
+            break
+        if level == 0:
+            _check_surface_memory(topo, scheme, 1, budget, who="SurfacePoints")
+        quad = sub < 0
+        u, v = local[:, 0], local[:, 1]
+        quadrant = np.where(u < 0.5, np.where(v < 0.5, 0, 3), np.where(v < 0.5, 1, 2))
+        corner = np.where(quad, quadrant, sub)
+        q_map = np.where(quad[:, None, None], _QUADRANT_MAP[quadrant], np.eye(2))
+        q_shift = np.where(quad[:, None], _QUADRANT_SHIFT[quadrant], 0.0)
+        local = np.einsum("nab,nb->na", q_map, local) + q_shift
+        jac = np.einsum("nab,nbc->nac", q_map, jac)
+        sub = np.full(len(queries), -1, np.int64)
+        children = topo.offsets[where] + corner
+        refined = _refine(scheme, patches, topo, V0)
+        targets, which = np.unique(children, return_inverse=True)
+        try:
+            patches, index = _one_rings(refined, targets)
+            topo = patches.topology(scheme)
+            where = index[which.reshape(-1)]
+        except ValueError:  # a ring that is not a disk (tiny meshes): keep them all
+            patches, where = refined, children
+            topo = patches.topology(scheme)
+    blocks.append(Sparse.build([], [], [], (_KINDS * N, V0)))
+    table = Sparse.build(*(np.concatenate(a) for a in zip(*(
+        (b.rows, b.cols, b.weights) for b in blocks))), (_KINDS * N, V0))  # fmt: skip
+    return table, exact, depth, cap, capped
+
+
+class SurfacePoints(eqx.Module):
+    r"""Points on the Catmull-Clark limit surface at any `(face, u, v)`: positions,
+    first and second derivatives and normals, as stencil tables.
+
+    Each point's limit position and derivatives are fixed linear combinations of the
+    base vertices. They are found once, on the host, and stored as stencil tables, so
+    evaluating them for new vertex positions is one kernel per quantity,
+    differentiable and batched like [`jaxsubdiv.surfaces.Limit`][] (OpenSubdiv's limit
+    stencils at locations).
+
+    **Parametrisation.** On a quad face `[c0, c1, c2, c3]`, `(u, v)` in $[0, 1]^2$ has
+    `(0, 0)` at `c0`, `(1, 0)` at `c1`, `(1, 1)` at `c2` and `(0, 1)` at `c3`; the
+    derivatives are with respect to these `u` and `v`. A face of `k != 4` vertices is
+    split into `k` quads by the first level (OpenSubdiv's ptex sub-faces): give
+    `subfaces[i] = j` for the quad at its corner `j`, whose `(u, v)` has `(0, 0)` at
+    the corner, `(1, 0)` at the midpoint of the edge to corner `j + 1`, `(1, 1)` at the
+    face's centroid point and `(0, 1)` at the midpoint of the edge from corner `j - 1`.
+
+    **Exactness.** Where the sub-face containing a point is regular (its corners are
+    smooth vertices of valence 4, or boundary, crease or corner vertices the
+    bicubic patch with mirrored phantom points reproduces), the point is evaluated
+    exactly on the bicubic B-spline patch (`exact` is True). Faces that are not
+    regular are refined locally towards the point, up to `max_depth` levels; a point
+    that is then still next to an irregular vertex (an extraordinary vertex, a dart, a
+    crease end, a boundary vertex of another valence) lies within $2^{-\text{max\_depth}}$
+    of the face's size from it, and is evaluated on the bilinear patch of the limit
+    positions of the last sub-face's corners (`exact` is False): its position is
+    exact at the vertex itself and within about $4^{-\text{max\_depth}}$ times the
+    surface's curvature times the squared face size elsewhere; its first derivatives
+    are the secant over that sub-face and its second derivatives those of a bilinear
+    patch. At an extraordinary vertex the limit surface has no parametric derivatives
+    (they vanish or diverge like $r^{\log_2(1/\lambda) - 1}$, $\lambda$ the
+    subdominant eigenvalue), but it has a normal: `normals` there is the exact limit
+    normal of the vertex where it is smooth (Halstead, Kass and DeRose's tangent
+    stencils, as [`jaxsubdiv.surfaces.Limit`][]), the secant normal elsewhere
+    (`docs/surfaces.md` has the measured errors).
+
+    Points on semi-sharp edges are refined until the sharpness has decayed (at most 10
+    levels). Available for `CatmullClark()` with either boundary interpolation and
+    crease method.
+
+    Attributes: `position` (`N` rows), `first` (`2N`: d/du then d/dv), `second` (`3N`:
+    d2/du2, d2/dudv, d2/dv2) stencil tables; `exact` and `depth` (levels refined) per
+    point.
+    """
+
+    position: StencilTable
+    first: StencilTable
+    second: StencilTable
+    exact: Bool[Array, " N"]
+    depth: Int[Array, " N"]
+    cap_tangents: StencilTable
+    capped: Int[Array, " K"]
+    num_points: int = eqx.field(static=True)
+
+    def __init__(
+        self,
+        mesh: Mesh,
+        scheme: AbstractSurfaceScheme,
+        faces: Int[ArrayLike, " N"],
+        uv: Float[ArrayLike, "N 2"],
+        *,
+        subfaces: Int[ArrayLike, " N"] | None = None,
+        max_depth: int = DEFAULT_MAX_DEPTH,
+        memory_budget: float = DEFAULT_MEMORY_BUDGET,
+    ):
+        """**Arguments:**
+
+        - `mesh`: the base [`jaxsubdiv.surfaces.Mesh`][] (only its topology is used).
+        - `scheme`: `CatmullClark()`.
+        - `faces`: `(N,)` face index of each point.
+        - `uv`: `(N, 2)` coordinates in $[0, 1]^2$ on the face (or its sub-face).
+        - `subfaces`: `(N,)` for points on faces that are not quads: the corner whose
+          quad of the first level holds the point (`-1` on quads, the default).
+        - `max_depth`: the most levels a face is refined towards a point (10 to 24;
+          default 16: deeper, the tangents at a vertex lose digits to cancellation as
+          the sub-face shrinks). Keyword only.
+        - `memory_budget`: the most memory, in bytes, for the one level of the whole
+          mesh that faces that are not regular need, and for the tables (about
+          `6 N` rows of up to a few hundred weights); checked before building. Keyword
+          only.
+        """
+        _check(mesh, scheme)
+        if not isinstance(scheme, CatmullClark):
+            raise ValueError(
+                f"SurfacePoints evaluates `CatmullClark()` surfaces only; got "
+                f"{type(scheme).__name__}(). Use `Limit` for the limit at the vertices "
+                "(Loop), or a `Refiner` for points as close to the surface as needed."
+            )
+        max_depth = static_int(max_depth, "max_depth", minimum=10, maximum=24,
+                               why=" (semi-sharp tags last up to 10 levels)")  # fmt: skip
+        budget = checked_budget(memory_budget)
+        face, uv, subface = _checked_points(mesh, faces, uv, subfaces)
+        need = _BYTES_PER_WEIGHT * _KINDS * int(_support_sizes(mesh, face).sum())
+        if need > budget:
+            raise ValueError(
+                f"SurfacePoints: {len(face):,} points need up to about {need:,} bytes of "
+                f"stencil tables, above memory_budget={budget:,}. Evaluate fewer points at "
+                "a time, or raise `memory_budget`."
+            )
+        table, exact, depth, cap, capped = _stencils(mesh, scheme, face, uv, subface,
+                                                     max_depth, budget)  # fmt: skip
+        N = len(face)
+        self.position = StencilTable.from_sparse(table.take_rows(np.arange(N)))
+        self.first = StencilTable.from_sparse(table.take_rows(np.arange(N, 3 * N)))
+        self.second = StencilTable.from_sparse(table.take_rows(np.arange(3 * N, 6 * N)))
+        self.exact = jax.device_put(exact)
+        self.depth = jax.device_put(depth.astype(np.int32))
+        self.num_points = N
+        self.cap_tangents = StencilTable.from_sparse(cap)
+        self.capped = jax.device_put(capped.astype(np.int32))
+
+    def positions(self, vertices: Float[ArrayLike, "*batch V C"]) -> Float[Array, "*batch N C"]:
+        """Limit positions (any channels) of the points, in order."""
+        return self.position(vertices)
+
+    def derivatives(
+        self, vertices: Float[ArrayLike, "*batch V C"]
+    ) -> tuple[Float[Array, "*batch N C"], Float[Array, "*batch N C"]]:
+        """The derivatives with respect to `u` and to `v` at the points."""
+        both = self.first(vertices)
+        N = self.num_points
+        return both[..., :N, :], both[..., N:, :]
+
+    def second_derivatives(
+        self, vertices: Float[ArrayLike, "*batch V C"]
+    ) -> tuple[Float[Array, "*batch N C"], Float[Array, "*batch N C"], Float[Array, "*batch N C"]]:
+        """d2/du2, d2/dudv and d2/dv2 at the points."""
+        three = self.second(vertices)
+        N = self.num_points
+        return three[..., :N, :], three[..., N : 2 * N, :], three[..., 2 * N :, :]
+
+    def normals(self, vertices: Float[ArrayLike, "*batch V 3"]) -> Float[Array, "*batch N 3"]:
+        """Unit normals `d/du x d/dv` (the side the faces' counter-clockwise order points
+        to); zero where both derivatives are parallel (a degenerate mesh)."""
+        vertices = as_float_array(vertices, "vertices")
+        if vertices.shape[-1] != 3:
+            raise ValueError(f"`normals` needs 3-d positions, got {vertices.shape[-1]} channels.")
+        du, dv = self.derivatives(vertices)
+        K = self.capped.shape[0]
+        if K:
+            tangents = self.cap_tangents(vertices)
+            du = du.at[..., self.capped, :].set(tangents[..., :K, :])
+            dv = dv.at[..., self.capped, :].set(tangents[..., K:, :])
+        return _safe_normalize(jnp.cross(du, dv))
+
+
+# Peak host bytes per stored stencil weight while building (indices, weight, the
+# sparse products' copies): measured 68 on Suzanne at 10^4 and 10^5 points.
+_BYTES_PER_WEIGHT = 80
+
+
+def _support_sizes(mesh: Mesh, face: np.ndarray) -> np.ndarray:
+    """The number of base vertices on the faces sharing a vertex with each face of
+    `face`: every point on a face is a combination of those (its limit depends on its
+    1-ring only), so this bounds the weights per stencil row."""
+    import scipy.sparse
+
+    flat, sizes = flatten_faces(mesh.faces)
+    incidence = scipy.sparse.csr_matrix(
+        (np.ones(len(flat)), (np.repeat(np.arange(len(sizes)), sizes), flat)),
+        shape=(len(sizes), mesh.num_vertices),
+    )
+    wanted, inverse = np.unique(face, return_inverse=True)
+    ring = (incidence[wanted] @ incidence.T) @ incidence
+    return np.diff(ring.indptr)[inverse.reshape(-1)]
+
+
+def _checked_points(mesh: Mesh, faces, uv, subfaces):
+    """Face indices, coordinates and sub-faces as numpy arrays, or a `ValueError`
+    naming the argument and the fix."""
+    face = np.asarray(faces)
+    if face.ndim != 1 or not (np.issubdtype(face.dtype, np.integer) or face.size == 0):
+        raise ValueError(f"`faces` must be a 1-d array of face indices, got shape {face.shape} "
+                         f"of {face.dtype}.")  # fmt: skip
+    face = face.astype(np.int64)
+    F = mesh.num_faces
+    if len(face) and (face.min() < 0 or face.max() >= F):
+        bad = int(face[(face < 0) | (face >= F)][0])
+        raise ValueError(f"`faces` holds {bad}, but the mesh has {F} faces (0 to {F - 1}).")
+    uv = np.asarray(uv, np.float64)
+    if uv.shape != (len(face), 2):
+        raise ValueError(f"`uv` must have shape ({len(face)}, 2), one (u, v) per face index; "
+                         f"got {uv.shape}.")  # fmt: skip
+    if not np.all(np.isfinite(uv)) or np.any((uv < 0) | (uv > 1)):
+        i = int(np.argmax(~np.all(np.isfinite(uv) & (uv >= 0) & (uv <= 1), axis=1)))
+        raise ValueError(f"`uv` must lie in [0, 1]^2; point {i} is {uv[i].tolist()}.")
+    sizes = mesh.face_sizes()[face]
+    if subfaces is None:
+        subface = np.full(len(face), -1, np.int64)
+    else:
+        subface = np.asarray(subfaces)
+        if subface.shape != face.shape or not np.issubdtype(subface.dtype, np.integer):
+            raise ValueError(f"`subfaces` must be {len(face)} integers, one per point; got "
+                             f"shape {subface.shape} of {subface.dtype}.")  # fmt: skip
+        subface = subface.astype(np.int64)
+    quad = sizes == 4
+    bad = (quad & (subface != -1)) | (~quad & ((subface < 0) | (subface >= sizes)))
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        if quad[i]:
+            raise ValueError(f"Point {i} is on face {int(face[i])}, a quad: its `subfaces` "
+                             f"entry must be -1, got {int(subface[i])}.")  # fmt: skip
+        raise ValueError(
+            f"Point {i} is on face {int(face[i])}, which has {int(sizes[i])} vertices: give "
+            f"`subfaces[{i}]` in [0, {int(sizes[i]) - 1}], the corner whose quad of the "
+            f"first level holds the point (got {int(subface[i])})."
+        )
+    return face, uv, subface

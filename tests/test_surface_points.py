@@ -1,0 +1,334 @@
+"""The Catmull-Clark limit at any (face, u, v): against scipy's tensor-product B-splines on
+regular faces, against the limit of refined vertices (`Refiner` then `Limit`) at dyadic
+points of every kind of face, and against finite differences for the derivatives."""
+
+import pathlib
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import scipy.interpolate
+from helpers import assert_one_clear_error
+
+import jaxsubdiv.surfaces as jss
+
+
+DATA = pathlib.Path(__file__).parent / "data"
+CORNER_UV = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+
+
+def open_grid(n=6, m=5, seed=3):
+    """An open (n x m)-vertex quad grid, z random."""
+    x, y = np.meshgrid(np.arange(n), np.arange(m), indexing="xy")
+    z = np.random.default_rng(seed).normal(size=n * m) * 0.3
+    vertices = np.stack([x.ravel(), y.ravel(), z], 1).astype(float)
+    faces = [[j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i]
+             for j in range(m - 1) for i in range(n - 1)]  # fmt: skip
+    return vertices, np.array(faces)
+
+
+def l_shape():
+    """The open grid without its top-right quarter: a concave boundary corner (a
+    boundary vertex in three faces)."""
+    vertices, faces = open_grid(7, 7, seed=5)
+    keep = ~((faces.min(1) % 7 >= 3) & (faces.min(1) // 7 >= 3))
+    used = np.unique(faces[keep])
+    remap = np.full(len(vertices), -1)
+    remap[used] = np.arange(len(used))
+    return vertices[used], remap[faces[keep]]
+
+
+def pentagon_cap():
+    """A pentagon ringed by five quads (an n-gon next to valence-3 vertices)."""
+    angles = np.linspace(0, 2 * np.pi, 6)[:-1]
+    inner = np.stack([np.cos(angles), np.sin(angles), 0 * angles], 1)
+    vertices = np.concatenate([inner, 2 * inner + [0, 0, 0.3]])
+    faces = [[0, 1, 2, 3, 4]] + [[(i + 1) % 5, i, 5 + i, 5 + (i + 1) % 5, -1] for i in range(5)]
+    return vertices, np.array(faces)
+
+
+def cube():
+    v = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    f = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
+    return v, np.array(f)
+
+
+def suzanne():
+    return jss.read_mesh(DATA / "suzanne.obj")
+
+
+CC, EDGE_ONLY = jss.CatmullClark(), jss.CatmullClark(boundary_interpolation="edge_only")
+CHAIKIN = jss.CatmullClark(crease_method="chaikin")
+GRID = open_grid()
+
+# (name, mesh, scheme): every kind of corner a patch can have.
+CASES = [
+    ("suzanne: extraordinary vertices, triangles, valence 2", suzanne(), CC),
+    ("open grid, edge and corner", jss.Mesh(*GRID), CC),
+    ("open grid, edge only", jss.Mesh(*GRID), EDGE_ONLY),
+    ("crease, crease end and corner tag",
+     jss.Mesh(*GRID, creases=[[7, 8], [8, 9], [13, 14], [14, 20]], corners=[15]), CC),
+    ("dart", jss.Mesh(*GRID, creases=[[7, 8]]), CC),
+    ("crease turning (sectors of 1 and 3 faces)", jss.Mesh(*GRID, creases=[[13, 14], [14, 20]]), CC),
+    ("concave boundary corner", jss.Mesh(*l_shape()), CC),
+    ("concave boundary corner, edge only", jss.Mesh(*l_shape()), EDGE_ONLY),
+    ("semi-sharp, uniform",
+     jss.Mesh(*GRID, creases=[[7, 8], [8, 9], [9, 10]], crease_sharpness=[1.5, 2.3, 0.7],
+              corners=[14], corner_sharpness=[1.2]), CC),
+    ("semi-sharp, chaikin",
+     jss.Mesh(*GRID, creases=[[7, 8], [8, 9], [9, 10]], crease_sharpness=[1.5, 2.3, 0.7]),
+     CHAIKIN),
+    ("cube with two creases", jss.Mesh(*cube(), creases=[[0, 2], [2, 3]]), CC),
+    ("pentagon", jss.Mesh(*pentagon_cap()), CC),
+]  # fmt: skip
+
+
+class DyadicVertices:
+    """Which vertex, after `levels` levels of `Refiner`, a point `uv` of a face
+    becomes when it is a multiple of 2^-levels, from the refined vertex order the
+    `CatmullClark` docstring gives (vertex points, edge points by sorted edge, face
+    points; child face `h` at the corner where parent half-edge `h` starts) and the
+    parametrisation `SurfacePoints` documents, derived here from the geometry of each
+    child quad (origin at the corner, u to the midpoint of the outgoing edge, v to the
+    midpoint of the incoming one)."""
+
+    def __init__(self, mesh, scheme, levels):
+        self.levels = levels
+        self.meshes = [(mesh.faces, mesh.num_vertices)] + [
+            (r.faces, r.num_vertices)
+            for r in (jss.Refiner(mesh, scheme, k) for k in range(1, levels + 1))
+        ]
+        self.edges = [{tuple(e): i for i, e in enumerate(np.unique(face_edges(f), axis=0))}
+                      for f, _ in self.meshes]  # fmt: skip
+
+    def __call__(self, face, uv, subface):
+        u, v = uv
+        for level, (faces, count) in enumerate(self.meshes):
+            row = faces[face][faces[face] >= 0]
+            edges = self.edges[level]
+            if level or subface < 0:
+                for c in range(4):
+                    if (u, v) == tuple(CORNER_UV[c]):
+                        return int(row[c])
+                if (u, v) == (0.5, 0.5):
+                    return count + len(edges) + face
+                for s in range(4):
+                    if (u, v) == tuple((CORNER_UV[s] + CORNER_UV[(s + 1) % 4]) / 2):
+                        return count + edges[tuple(sorted((row[s], row[(s + 1) % 4])))]
+                corner = int(np.argmin(np.hypot(u - CORNER_UV[:, 0] / 2 - 0.25,
+                                                v - CORNER_UV[:, 1] / 2 - 0.25)))  # fmt: skip
+                origin = CORNER_UV[corner]
+                axes = np.stack([(CORNER_UV[(corner + 1) % 4] - origin) / 2,
+                                 (CORNER_UV[(corner - 1) % 4] - origin) / 2], 1)  # fmt: skip
+                u, v = np.linalg.solve(axes, np.array([u, v]) - origin)
+            else:
+                corner = subface
+            assert level < self.levels, "not a dyadic point of this level"
+            face = int((faces[:face] >= 0).sum()) + corner
+        raise AssertionError
+
+
+def face_edges(faces):
+    """`(H, 2)` sorted vertex pairs of every face side, in face order."""
+    rows = [row[row >= 0] for row in faces]
+    return np.sort(np.stack([np.concatenate(rows),
+                             np.concatenate([np.roll(r, -1) for r in rows])], 1), axis=1)  # fmt: skip
+
+
+@pytest.mark.parametrize("name, mesh, scheme", CASES, ids=[c[0] for c in CASES])
+def test_dyadic_points_are_limits_of_refined_vertices(name, mesh, scheme):
+    """At points that are vertices after a few levels, the evaluated position is the
+    limit of that refined vertex (`Refiner` + `Limit`, checked against Blender and by
+    eigen-analysis elsewhere), on 6 channels (3 random) so that no other vertex's limit
+    can agree by accident; corners of faces at extraordinary vertices included."""
+    levels = 2 if mesh.num_faces > 100 else 3
+    rng = np.random.default_rng(1)
+    sizes = mesh.face_sizes()
+    N = 60 if mesh.num_faces > 100 else 8 * mesh.num_faces  # small meshes: every face
+    face = rng.integers(0, mesh.num_faces, N) if N == 60 else np.repeat(np.arange(mesh.num_faces), 8)
+    uv = rng.integers(0, 2 ** (levels - 1) + 1, (N, 2)) / 2 ** (levels - 1)
+    uv[::7] = CORNER_UV[rng.integers(0, 4, len(uv[::7]))]
+    subface = np.where(sizes[face] == 4, -1, rng.integers(0, 5, N) % sizes[face])
+    points = jss.SurfacePoints(mesh, scheme, face, uv, subfaces=subface)
+    data = np.concatenate([mesh.vertices, rng.normal(size=(mesh.num_vertices, 3))], 1)
+    refiner = jss.Refiner(mesh, scheme, levels)
+    limits = np.asarray(jss.Limit(refiner.mesh(mesh.vertices), scheme).positions(refiner(data)))
+    vertex_of = DyadicVertices(mesh, scheme, levels)
+    want = [vertex_of(int(face[i]), uv[i], int(subface[i])) for i in range(N)]
+    np.testing.assert_allclose(points.positions(data), limits[want], rtol=0, atol=1e-13)
+
+
+def bspline_surface(control, x, y, dx=0, dy=0):
+    """scipy's bicubic tensor-product B-spline on the uniform knots of a vertex grid
+    (control point i centred at parameter i - 1)."""
+    n = control.shape[1]
+    knots = np.arange(-3, n + 1)
+    basis = scipy.interpolate.BSpline(knots, np.eye(n), 3)
+    return np.einsum("j,jic,i->c", basis(y, nu=dy), control, basis(x, nu=dx))
+
+
+def test_regular_faces_are_bicubic_bspline_patches():
+    """Interior faces of a quad grid: positions, first and second derivatives are
+    scipy's tensor-product cubic B-spline's, at random (u, v)."""
+    n = 8
+    vertices, faces = open_grid(n, n, seed=0)
+    vertices[:, 2] = np.random.default_rng(0).normal(size=n * n)
+    rng = np.random.default_rng(2)
+    cells = rng.integers(1, n - 2, (40, 2))  # faces whose 16 vertices are interior
+    face = cells[:, 1] * (n - 1) + cells[:, 0]
+    uv = rng.uniform(size=(40, 2))
+    points = jss.SurfacePoints(jss.Mesh(vertices, faces), CC, face, uv)
+    assert np.all(points.exact) and np.all(points.depth == 0)
+    control = vertices.reshape(n, n, 3)
+    x, y = cells[:, 0] - 1 + uv[:, 0], cells[:, 1] - 1 + uv[:, 1]
+    derivatives = [*points.derivatives(vertices), *points.second_derivatives(vertices)]
+    for got, (dx, dy) in zip([points.positions(vertices), *derivatives],
+                             [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]):  # fmt: skip
+        want = [bspline_surface(control, a, b, dx, dy) for a, b in zip(x, y)]
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def near_irregular():
+    """Points on Suzanne's quads, a third of them within 1e-3 to 0.1 of the corner,
+    with 4 neighbours each at a step h in u and v (one set of tables)."""
+    mesh = suzanne()
+    quads = np.flatnonzero(mesh.face_sizes() == 4)
+    rng = np.random.default_rng(0)
+    N, h = 120, 1e-5
+    face = rng.choice(quads, N)
+    uv = rng.uniform(0.01, 0.99, (N, 2))
+    uv[:40] *= rng.uniform(1e-3, 0.1, (40, 1))
+    shifted = [uv, uv + [h, 0], uv - [h, 0], uv + [0, h], uv - [0, h]]
+    points = jss.SurfacePoints(mesh, CC, np.tile(face, 5), np.concatenate(shifted))
+    return mesh, points, N, h
+
+
+def test_derivatives_match_finite_differences(near_irregular):
+    """First derivatives against central differences of the positions, second against
+    those of the first, near extraordinary vertices too (up to 9 levels deep)."""
+    mesh, points, N, h = near_irregular
+    assert np.all(points.exact) and points.depth.max() >= 6
+    split = lambda a: np.asarray(a).reshape(5, N, 3)
+    p = split(points.positions(mesh.vertices))
+    du, dv = map(split, points.derivatives(mesh.vertices))
+    duu, duv, dvv = map(split, points.second_derivatives(mesh.vertices))
+
+    def close(got, want, rtol):  # relative to each point's largest component
+        scale = np.maximum(np.abs(want).max(-1, keepdims=True), 1e-2)
+        worst = np.max(np.abs(got - want) / scale)
+        assert worst < rtol, worst
+
+    close(du[0], (p[1] - p[2]) / (2 * h), 1e-6)
+    close(dv[0], (p[3] - p[4]) / (2 * h), 1e-6)
+    close(duu[0], (du[1] - du[2]) / (2 * h), 1e-4)
+    close(duv[0], (du[3] - du[4]) / (2 * h), 1e-4)
+    close(dvv[0], (dv[3] - dv[4]) / (2 * h), 1e-4)
+
+
+def test_points_on_shared_edges_agree_from_both_faces():
+    """A point on an edge, evaluated on each of its two faces (different patches,
+    different parametrisations): the same position, and the same derivative along the
+    edge up to its direction; Suzanne's quad-quad edges at random positions."""
+    mesh = suzanne()
+    faces = mesh.faces
+    rng = np.random.default_rng(4)
+    pairs = {}
+    for f, row in enumerate(faces):
+        if (row >= 0).sum() != 4:
+            continue
+        for s in range(4):
+            pairs.setdefault(tuple(sorted((row[s], row[(s + 1) % 4]))), []).append((f, s))
+    shared = [p for p in pairs.values() if len(p) == 2]
+    t = rng.uniform(size=len(shared))
+    face, uv, direction = [], [], []
+    for (a, b), x in zip(shared, t):
+        for (f, s), along in ((a, x), (b, 1 - x)):
+            start, end = CORNER_UV[s], CORNER_UV[(s + 1) % 4]
+            face.append(f)
+            uv.append(start + along * (end - start))
+            direction.append(end - start)
+    points = jss.SurfacePoints(mesh, CC, np.array(face), np.array(uv))
+    p = np.asarray(points.positions(mesh.vertices)).reshape(-1, 2, 3)
+    du, dv = (np.asarray(d) for d in points.derivatives(mesh.vertices))
+    direction = np.array(direction)
+    along = (du * direction[:, :1] + dv * direction[:, 1:]).reshape(-1, 2, 3)
+    np.testing.assert_allclose(p[:, 0], p[:, 1], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(along[:, 0], -along[:, 1], rtol=0, atol=1e-10)
+
+
+def test_normals_at_extraordinary_vertices_approach_limit_normals():
+    """At Suzanne's extraordinary vertices themselves (never a regular patch), the
+    position is the vertex's limit (exact) and the normal is `Limit.normals`'s (to
+    1e-3 degrees: the same tangent stencils, composed with 16 levels)."""
+    mesh = suzanne()
+    faces = mesh.faces
+    valence = np.bincount(np.unique(face_edges(faces), axis=0).reshape(-1))
+    face, uv, vertex = [], [], []
+    for f, row in enumerate(faces):
+        if (row >= 0).sum() == 4:
+            for c in range(4):
+                if valence[row[c]] != 4:
+                    face.append(f), uv.append(CORNER_UV[c]), vertex.append(row[c])
+    vertex = np.array(vertex)
+    points = jss.SurfacePoints(mesh, CC, np.array(face), np.array(uv))
+    limit = jss.Limit(mesh, CC)
+    boundary = np.isin(vertex, _boundary_vertices(faces))
+    assert not np.any(points.exact[~boundary]) and np.all(points.depth[~boundary] == 16)
+    np.testing.assert_allclose(points.positions(mesh.vertices),
+                               limit.positions(mesh.vertices)[vertex], rtol=0, atol=1e-14)  # fmt: skip
+    cos = np.sum(points.normals(mesh.vertices) * limit.normals(mesh.vertices)[vertex], -1)
+    angle = np.degrees(np.arccos(np.clip(np.asarray(cos), -1, 1)))
+    assert angle.max() < 1e-3, angle.max()
+
+
+def _boundary_vertices(faces):
+    unique, count = np.unique(face_edges(faces), axis=0, return_counts=True)
+    return np.unique(unique[count == 1])
+
+
+def test_evaluation_is_one_kernel_batched_and_differentiable(near_irregular):
+    """Leading batch axes give each item's values; under `jit` new vertex values
+    reuse the program; the gradient of a loss on positions is the stencil's transpose
+    applied to the loss's gradient (checked against the dense table)."""
+    mesh, points, N, _ = near_irregular
+    rng = np.random.default_rng(5)
+    batch = mesh.vertices + rng.normal(size=(3, *mesh.vertices.shape)) * 0.01
+    np.testing.assert_allclose(points.positions(batch)[1], points.positions(batch[1]),
+                               rtol=0, atol=1e-15)  # fmt: skip
+    f = jax.jit(lambda v: jnp.sum(points.normals(v)[:, 2] + points.positions(v)[:, 0] ** 2))
+    compiled = f.lower(batch[0]).compile()
+    np.testing.assert_allclose(compiled(batch[1]), f(batch[1]), rtol=1e-14)
+    grad = jax.grad(lambda v: jnp.sum(points.positions(v)[:, 0] ** 2))(batch[0])
+    dense = np.asarray(points.position.dense())
+    want = dense.T @ (2 * (dense @ batch[0])[:, 0])
+    np.testing.assert_allclose(grad[:, 0], want, rtol=1e-12, atol=1e-13)
+    assert np.all(grad[:, 1:] == 0)
+
+
+BAD_INPUTS = [
+    ("face out of range", dict(faces=[0, 99999], uv=[[0.5, 0.5]] * 2), ["`faces`", "99999"]),
+    ("uv outside", dict(faces=[0], uv=[[0.5, 1.5]]), ["`uv`", "[0, 1]"]),
+    ("uv NaN", dict(faces=[0], uv=[[np.nan, 0.5]]), ["`uv`", "[0, 1]"]),
+    ("uv shape", dict(faces=[0, 1], uv=[[0.5, 0.5]]), ["`uv`", "shape"]),
+    ("float faces", dict(faces=[0.5], uv=[[0.5, 0.5]]), ["`faces`", "indices"]),
+    ("subface on a quad", dict(faces=[1], uv=[[0.5, 0.5]], subfaces=[2]), ["`subfaces`", "-1"]),
+    ("no subface on an n-gon", dict(faces=[0], uv=[[0.5, 0.5]]), ["`subfaces[0]`", "[0, 4]"]),
+    ("max_depth", dict(faces=[1], uv=[[0.5, 0.5]], max_depth=3), ["max_depth"]),
+    ("memory", dict(faces=[1], uv=[[0.5, 0.5]], memory_budget=100), ["memory_budget"]),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("name, kwargs, words", BAD_INPUTS, ids=[b[0] for b in BAD_INPUTS])
+def test_bad_points_get_clear_errors(name, kwargs, words):
+    mesh = jss.Mesh(*pentagon_cap())
+    assert_one_clear_error(lambda: jss.SurfacePoints(mesh, CC, **kwargs), ValueError, words)
+
+
+@pytest.mark.parametrize("scheme", [jss.Loop(), jss.DooSabin()], ids=["Loop", "DooSabin"])
+def test_other_schemes_are_refused_with_the_alternative(scheme):
+    tetrahedron = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]
+    mesh = jss.Mesh(np.eye(4)[:, :3], tetrahedron)
+    assert_one_clear_error(lambda: jss.SurfacePoints(mesh, scheme, [0], [[0.5, 0.5]]),
+                           ValueError, ["CatmullClark", "Limit", "Refiner"])  # fmt: skip
