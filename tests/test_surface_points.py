@@ -16,6 +16,7 @@ import jaxsubdiv.surfaces as jss
 
 DATA = pathlib.Path(__file__).parent / "data"
 CORNER_UV = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+TRIANGLE_UV = np.array([[0, 0], [1, 0], [0, 1]], float)
 
 
 def open_grid(n=6, m=5, seed=3):
@@ -58,9 +59,39 @@ def suzanne():
     return jss.read_mesh(DATA / "suzanne.obj")
 
 
+LOOP = jss.Loop()
 CC, EDGE_ONLY = jss.CatmullClark(), jss.CatmullClark(boundary_interpolation="edge_only")
 CHAIKIN = jss.CatmullClark(crease_method="chaikin")
 GRID = open_grid()
+
+
+def triangulated(vertices, faces):
+    """Each quad split along its (0, 2) diagonal."""
+    return vertices, np.concatenate([faces[:, [0, 1, 2]], faces[:, [0, 2, 3]]])
+
+
+def torus_triangles(m=5, n=6):
+    """A closed triangle mesh with every vertex of valence 6."""
+    i, j = np.meshgrid(np.arange(m), np.arange(n), indexing="ij")
+    idx = lambda a, b: (a % m) * n + (b % n)
+    quads = np.stack([idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)], -1)
+    angle_i, angle_j = 2 * np.pi * i.ravel() / m, 2 * np.pi * j.ravel() / n
+    vertices = np.stack([(2 + np.cos(angle_j)) * np.cos(angle_i),
+                         (2 + np.cos(angle_j)) * np.sin(angle_i), np.sin(angle_j)], 1)  # fmt: skip
+    return triangulated(vertices, quads.reshape(-1, 4))
+
+
+def icosahedron():
+    p = (1 + 5**0.5) / 2
+    v = np.array([[-1, p, 0], [1, p, 0], [-1, -p, 0], [1, -p, 0], [0, -1, p], [0, 1, p],
+                  [0, -1, -p], [0, 1, -p], [p, 0, -1], [p, 0, 1], [-p, 0, -1], [-p, 0, 1]])  # fmt: skip
+    f = [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+         [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
+         [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]]  # fmt: skip
+    return v, np.array(f)
+
+
+TRIANGLE_GRID = triangulated(*open_grid())
 
 # (name, mesh, scheme): every kind of corner a patch can have.
 CASES = [
@@ -81,20 +112,28 @@ CASES = [
      CHAIKIN),
     ("cube with two creases", jss.Mesh(*cube(), creases=[[0, 2], [2, 3]]), CC),
     ("pentagon", jss.Mesh(*pentagon_cap()), CC),
+    ("Loop: regular torus", jss.Mesh(*torus_triangles()), LOOP),
+    ("Loop: icosahedron", jss.Mesh(*icosahedron()), LOOP),
+    ("Loop: open grid, edge and corner", jss.Mesh(*TRIANGLE_GRID), LOOP),
+    ("Loop: open grid, edge only", jss.Mesh(*TRIANGLE_GRID),
+     jss.Loop(boundary_interpolation="edge_only")),
+    ("Loop: crease, dart, corner tag, semi-sharp",
+     jss.Mesh(*TRIANGLE_GRID, creases=[[6, 7], [7, 8], [13, 14]], corners=[15],
+              crease_sharpness=[np.inf, 1.5, np.inf]), LOOP),
 ]  # fmt: skip
 
 
 class DyadicVertices:
-    """Which vertex, after `levels` levels of `Refiner`, a point `uv` of a face
-    becomes when it is a multiple of 2^-levels, from the refined vertex order the
-    `CatmullClark` docstring gives (vertex points, edge points by sorted edge, face
-    points; child face `h` at the corner where parent half-edge `h` starts) and the
-    parametrisation `SurfacePoints` documents, derived here from the geometry of each
-    child quad (origin at the corner, u to the midpoint of the outgoing edge, v to the
-    midpoint of the incoming one)."""
+    """Which vertex, after `levels` levels of `Refiner`, a point of a face becomes when
+    it is a multiple of 2^-levels. Independent of `SurfacePoints`' own bookkeeping: it
+    keeps the (u, v) of the face's vertices at each level (the parametrisation splits
+    faces at the midpoints in (u, v): edge points at the middle of their edge, face
+    points at the centre), finds the child among the refined faces whose vertices are
+    the face's own vertex, edge and face points, and stops when the point is a vertex,
+    from the refined vertex order the schemes document (vertex points, edge points by
+    sorted edge, then face points; a vertex point keeps its index)."""
 
     def __init__(self, mesh, scheme, levels):
-        self.levels = levels
         self.meshes = [(mesh.faces, mesh.num_vertices)] + [
             (r.faces, r.num_vertices)
             for r in (jss.Refiner(mesh, scheme, k) for k in range(1, levels + 1))
@@ -103,30 +142,45 @@ class DyadicVertices:
                       for f, _ in self.meshes]  # fmt: skip
 
     def __call__(self, face, uv, subface):
-        u, v = uv
-        for level, (faces, count) in enumerate(self.meshes):
+        faces, count = self.meshes[0]
+        row = faces[face][faces[face] >= 0]
+        k, E = len(row), len(self.edges[0])
+        if subface >= 0:  # the first level's quad at that corner is the face
+            c = subface
+            mid = lambda a, b: count + self.edges[0][tuple(sorted((row[a], row[b])))]
+            ids = [row[c], mid(c, (c + 1) % k), count + E + face, mid(c - 1, c)]
+            at = dict(zip(ids, CORNER_UV))
+            face = next(f for f, r in enumerate(self.meshes[1][0]) if set(r) == set(ids))
+            level = 1
+        else:
+            at = dict(zip(row, CORNER_UV if k == 4 else TRIANGLE_UV))
+            level = 0
+        point = np.asarray(uv, float)
+        for level in range(level, len(self.meshes)):
+            faces, count = self.meshes[level]
             row = faces[face][faces[face] >= 0]
-            edges = self.edges[level]
-            if level or subface < 0:
-                for c in range(4):
-                    if (u, v) == tuple(CORNER_UV[c]):
-                        return int(row[c])
-                if (u, v) == (0.5, 0.5):
-                    return count + len(edges) + face
-                for s in range(4):
-                    if (u, v) == tuple((CORNER_UV[s] + CORNER_UV[(s + 1) % 4]) / 2):
-                        return count + edges[tuple(sorted((row[s], row[(s + 1) % 4])))]
-                corner = int(np.argmin(np.hypot(u - CORNER_UV[:, 0] / 2 - 0.25,
-                                                v - CORNER_UV[:, 1] / 2 - 0.25)))  # fmt: skip
-                origin = CORNER_UV[corner]
-                axes = np.stack([(CORNER_UV[(corner + 1) % 4] - origin) / 2,
-                                 (CORNER_UV[(corner - 1) % 4] - origin) / 2], 1)  # fmt: skip
-                u, v = np.linalg.solve(axes, np.array([u, v]) - origin)
-            else:
-                corner = subface
-            assert level < self.levels, "not a dyadic point of this level"
-            face = int((faces[:face] >= 0).sum()) + corner
+            for vertex in row:
+                if np.array_equal(at[vertex], point):
+                    return int(vertex)
+            assert level + 1 < len(self.meshes), "not a dyadic point of this level"
+            edges, E = self.edges[level], len(self.edges[level])
+            for a, b in zip(row, np.roll(row, -1)):
+                at[count + edges[tuple(sorted((a, b)))]] = (at[a] + at[b]) / 2
+            if len(row) == 4:
+                at[count + E + face] = np.mean([at[v] for v in row], axis=0)
+            refined = self.meshes[level + 1][0]
+            children = np.flatnonzero(np.isin(refined, list(at)).all(axis=1))
+            face = next(int(f) for f in children
+                        if _inside(point, [at[v] for v in refined[f]]))  # fmt: skip
         raise AssertionError
+
+
+def _inside(point, polygon):
+    """Whether `point` is inside or on the convex counter-clockwise `polygon`."""
+    polygon = np.asarray(polygon)
+    edge = np.roll(polygon, -1, axis=0) - polygon
+    to = point - polygon
+    return bool(np.all(edge[:, 0] * to[:, 1] - edge[:, 1] * to[:, 0] >= -1e-15))
 
 
 def face_edges(faces):
@@ -148,8 +202,11 @@ def test_dyadic_points_are_limits_of_refined_vertices(name, mesh, scheme):
     N = 60 if mesh.num_faces > 100 else 8 * mesh.num_faces  # small meshes: every face
     face = rng.integers(0, mesh.num_faces, N) if N == 60 else np.repeat(np.arange(mesh.num_faces), 8)
     uv = rng.integers(0, 2 ** (levels - 1) + 1, (N, 2)) / 2 ** (levels - 1)
-    uv[::7] = CORNER_UV[rng.integers(0, 4, len(uv[::7]))]
-    subface = np.where(sizes[face] == 4, -1, rng.integers(0, 5, N) % sizes[face])
+    corners = 3 if isinstance(scheme, jss.Loop) else 4
+    uv[::7] = (CORNER_UV if corners == 4 else TRIANGLE_UV)[rng.integers(0, corners, len(uv[::7]))]
+    if corners == 3:  # into the triangle u + v <= 1
+        uv = np.where(uv.sum(1, keepdims=True) > 1, 1 - uv, uv)
+    subface = np.where(sizes[face] == corners, -1, rng.integers(0, 5, N) % sizes[face])
     points = jss.SurfacePoints(mesh, scheme, face, uv, subfaces=subface)
     data = np.concatenate([mesh.vertices, rng.normal(size=(mesh.num_vertices, 3))], 1)
     refiner = jss.Refiner(mesh, scheme, levels)
@@ -189,19 +246,29 @@ def test_regular_faces_are_bicubic_bspline_patches():
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
 
 
-@pytest.fixture(scope="module")
-def near_irregular():
-    """Points on Suzanne's quads, a third of them within 1e-3 to 0.1 of the corner,
-    with 4 neighbours each at a step h in u and v (one set of tables)."""
-    mesh = suzanne()
-    quads = np.flatnonzero(mesh.face_sizes() == 4)
+def loop_icosphere():
+    """The icosahedron refined once by Loop: valence-5 and valence-6 vertices."""
+    return jss.refine_mesh(jss.Mesh(*icosahedron()), LOOP, 1)
+
+
+# (name, mesh, scheme) for points near extraordinary vertices.
+IRREGULAR = [("Catmull-Clark, Suzanne", suzanne(), CC), ("Loop, icosphere", loop_icosphere(), LOOP)]
+
+
+@pytest.fixture(scope="module", params=IRREGULAR, ids=[c[0] for c in IRREGULAR])
+def near_irregular(request):
+    """Points on faces of the scheme's size, a third of them within 1e-3 to 0.1 of the
+    first corner, with 4 neighbours each at a step h in u and v (one set of tables)."""
+    _, mesh, scheme = request.param
+    corners = 3 if isinstance(scheme, jss.Loop) else 4
+    faces = np.flatnonzero(mesh.face_sizes() == corners)
     rng = np.random.default_rng(0)
-    N, h = 120, 1e-5
-    face = rng.choice(quads, N)
-    uv = rng.uniform(0.01, 0.99, (N, 2))
-    uv[:40] *= rng.uniform(1e-3, 0.1, (40, 1))
+    N, h = 120, 1e-6
+    face = rng.choice(faces, N)
+    uv = rng.uniform(0.05, 0.95, (N, 2)) * (0.5 if corners == 3 else 1)
+    uv[:40] *= rng.uniform(1e-3, 0.1, (40, 1))  # at least 2.5e-5 from the sides
     shifted = [uv, uv + [h, 0], uv - [h, 0], uv + [0, h], uv - [0, h]]
-    points = jss.SurfacePoints(mesh, CC, np.tile(face, 5), np.concatenate(shifted))
+    points = jss.SurfacePoints(mesh, scheme, np.tile(face, 5), np.concatenate(shifted))
     return mesh, points, N, h
 
 
@@ -258,22 +325,25 @@ def test_points_on_shared_edges_agree_from_both_faces():
     np.testing.assert_allclose(along[:, 0], -along[:, 1], rtol=0, atol=1e-10)
 
 
-def test_normals_at_extraordinary_vertices_approach_limit_normals():
-    """At Suzanne's extraordinary vertices themselves (never a regular patch), the
+@pytest.mark.parametrize("name, mesh, scheme", IRREGULAR, ids=[c[0] for c in IRREGULAR])
+def test_normals_at_extraordinary_vertices_are_limit_normals(name, mesh, scheme):
+    """At the extraordinary vertices themselves (never on a regular patch), the
     position is the vertex's limit (exact) and the normal is `Limit.normals`'s (to
     1e-3 degrees: the same tangent stencils, composed with 16 levels)."""
-    mesh = suzanne()
     faces = mesh.faces
+    corners = 3 if isinstance(scheme, jss.Loop) else 4
+    regular = 6 if corners == 3 else 4
     valence = np.bincount(np.unique(face_edges(faces), axis=0).reshape(-1))
     face, uv, vertex = [], [], []
     for f, row in enumerate(faces):
-        if (row >= 0).sum() == 4:
-            for c in range(4):
-                if valence[row[c]] != 4:
-                    face.append(f), uv.append(CORNER_UV[c]), vertex.append(row[c])
+        if (row >= 0).sum() == corners:
+            for c in range(corners):
+                if valence[row[c]] != regular:
+                    face.append(f), uv.append(CORNER_UV[c] if corners == 4 else TRIANGLE_UV[c])
+                    vertex.append(row[c])
     vertex = np.array(vertex)
-    points = jss.SurfacePoints(mesh, CC, np.array(face), np.array(uv))
-    limit = jss.Limit(mesh, CC)
+    points = jss.SurfacePoints(mesh, scheme, np.array(face), np.array(uv))
+    limit = jss.Limit(mesh, scheme)
     boundary = np.isin(vertex, _boundary_vertices(faces))
     assert not np.any(points.exact[~boundary]) and np.all(points.depth[~boundary] == 16)
     np.testing.assert_allclose(points.positions(mesh.vertices),
@@ -326,9 +396,15 @@ def test_bad_points_get_clear_errors(name, kwargs, words):
     assert_one_clear_error(lambda: jss.SurfacePoints(mesh, CC, **kwargs), ValueError, words)
 
 
-@pytest.mark.parametrize("scheme", [jss.Loop(), jss.DooSabin()], ids=["Loop", "DooSabin"])
-def test_other_schemes_are_refused_with_the_alternative(scheme):
-    tetrahedron = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]
-    mesh = jss.Mesh(np.eye(4)[:, :3], tetrahedron)
-    assert_one_clear_error(lambda: jss.SurfacePoints(mesh, scheme, [0], [[0.5, 0.5]]),
-                           ValueError, ["CatmullClark", "Limit", "Refiner"])  # fmt: skip
+def test_doo_sabin_and_loop_on_quads_are_refused_with_the_alternative():
+    mesh = jss.Mesh(*cube())
+    assert_one_clear_error(lambda: jss.SurfacePoints(mesh, jss.DooSabin(), [0], [[0.5, 0.5]]),
+                           ValueError, ["CatmullClark", "Loop", "Refiner"])  # fmt: skip
+    assert_one_clear_error(lambda: jss.SurfacePoints(mesh, LOOP, [0], [[0.5, 0.5]]),
+                           ValueError, ["triangle", "face 0", "CatmullClark"])  # fmt: skip
+
+
+def test_loop_points_outside_the_triangle_are_refused():
+    mesh = jss.Mesh(*icosahedron())
+    assert_one_clear_error(lambda: jss.SurfacePoints(mesh, LOOP, [0, 1], [[0.2, 0.2], [0.6, 0.5]]),
+                           ValueError, ["`uv`", "u + v <= 1", "point 1"])  # fmt: skip

@@ -4,22 +4,27 @@ Catmull-Clark's limit over a quad whose corners are regular is the bicubic unifo
 B-spline patch of the 16 vertices around it; sharp sides (boundary or crease edges) and
 corners are the same patch with phantom points mirrored across the side (the tensor
 product of the cubic B-spline end rule), which reproduces the crease and corner rules
-exactly. Everywhere else the face is refined: the sub-face containing the point is
-regular after a few levels unless the point is an extraordinary vertex, a dart, a crease
-end or another irregular vertex itself. Refinement is local: a sub-face's limit depends
-only on its 1-ring (the faces sharing a vertex with it), so each level refines the
-disjoint union of the 1-rings of the sub-faces still holding points, one vectorized
-numpy level for all of them. This is the evaluation OpenSubdiv's patch tables make
-(adaptive refinement to regular patches); every point becomes a row of weights on the
-base vertices, so evaluation is one stencil kernel, differentiable and batched.
+exactly. Loop's limit over a triangle whose corners are smooth, interior and of
+valence 6 is the quartic three-direction box spline of its 12 surrounding vertices.
+Everywhere else the face is refined: the sub-face containing the point is regular after
+a few levels unless the point is an irregular vertex itself (an extraordinary vertex, a
+dart, a crease end; for Loop, also boundary and crease vertices). Refinement is local: a
+sub-face's limit depends only on its 1-ring (the faces sharing a vertex with it), so
+each level refines the disjoint union of the 1-rings of the sub-faces still holding
+points, one vectorized numpy level for all of them. This is the evaluation OpenSubdiv's
+patch tables make (adaptive refinement to regular patches); every point becomes a row
+of weights on the base vertices, so evaluation is one stencil kernel, differentiable and
+batched.
 
-Reference: J. Stam, "Exact evaluation of Catmull-Clark subdivision surfaces at
-arbitrary parameter values", SIGGRAPH 1998, §2-3 (the same limit, reached here by
-refinement instead of the eigenbasis); OpenSubdiv's `Far::PatchTable` documentation
-(phantom points for boundary patches).
+References: J. Stam, "Exact evaluation of Catmull-Clark subdivision surfaces at
+arbitrary parameter values" and "Evaluation of Loop subdivision surfaces", SIGGRAPH
+1998 (the same limits, reached here by refinement instead of the eigenbasis);
+OpenSubdiv's `Far::PatchTable` documentation (phantom points for boundary patches).
 """
 
 import dataclasses
+import functools
+from collections.abc import Callable
 
 import equinox as eqx
 import jax
@@ -30,6 +35,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int
 from .._misc import DEFAULT_MEMORY_BUDGET, as_float_array, checked_budget, static_int
 from ._base import AbstractSurfaceScheme
 from ._catmull_clark import CatmullClark
+from ._loop import Loop
 from ._mesh import Mesh
 from ._refine import _check, _check_surface_memory, _level, _safe_normalize
 from ._stencil import Sparse, StencilTable, _ranks
@@ -122,7 +128,7 @@ def _irregular_vertices(p: _Patches) -> np.ndarray:
     return mark
 
 
-def _regular_patches(topo: Topology, irregular: np.ndarray, faces: np.ndarray):
+def _quad_patches(topo: Topology, irregular: np.ndarray, faces: np.ndarray):
     """Which of `faces` are regular patches, their `(n, 16)` control vertices (row j,
     column i: the point at u-index i, v-index j; corners at (1,1), (2,1), (2,2), (1,2))
     and `(n, 4)` sharp sides (side i runs from corner i to corner i + 1).
@@ -177,7 +183,7 @@ def _regular_patches(topo: Topology, irregular: np.ndarray, faces: np.ndarray):
     return ok, np.where(ok[:, None], grid, 0), side & ok[:, None]
 
 
-def _patch_weights(sides: np.ndarray, uv: np.ndarray, jac: np.ndarray) -> np.ndarray:
+def _bicubic_weights(sides: np.ndarray, uv: np.ndarray, jac: np.ndarray) -> np.ndarray:
     """`(n, 6, 16)` weights of a regular patch's control points for the position and
     derivatives at local `uv`, in the query face's frame."""
     bu = _mirror(_cubic_basis(uv[:, 0]), sides[:, 3], sides[:, 1])  # (3, 4, n)
@@ -201,6 +207,130 @@ def _bilinear_weights(uv: np.ndarray, jac: np.ndarray) -> np.ndarray:
     local[:, 2] = [-0.5, -0.5, 0.5, 0.5]
     local[:, 4] = [1.0, -1.0, 1.0, -1.0]
     return _to_face_frame(local, jac)
+
+
+def _linear_weights(uv: np.ndarray, jac: np.ndarray) -> np.ndarray:
+    """`(n, 6, 3)` weights of a triangle's three corners' limit points: the linear
+    patch (its constant derivatives are the secants over the sub-face)."""
+    u, v = uv[:, 0], uv[:, 1]
+    local = np.zeros((len(u), _KINDS, 3))
+    local[:, 0] = np.stack([1 - u - v, u, v], 1)
+    local[:, 1] = [-1.0, 1.0, 0.0]
+    local[:, 2] = [-1.0, 0.0, 1.0]
+    return _to_face_frame(local, jac)
+
+
+def _triangle_patches(topo: Topology, irregular: np.ndarray, faces: np.ndarray):
+    """Which of `faces` are regular Loop patches (three smooth interior corners of
+    valence 6 with no sharp edge), and their 12 control vertices: the corners, the
+    vertex across each side, then two more around each corner (counter-clockwise)."""
+    h = topo.offsets[faces][:, None] + np.arange(3)
+    corner = topo.origin[h]
+    V = topo.num_vertices
+    nsharp = np.bincount(topo.edges[topo.sharp_edge].reshape(-1), minlength=V)
+    ok_corner = (
+        (topo.vertex_type[corner] == SMOOTH) & ~topo.boundary_vertex[corner]
+        & (topo.valence[corner] == 6) & (nsharp[corner] == 0) & ~irregular[corner]
+    )  # fmt: skip
+    ok = np.all(ok_corner, axis=1)
+    h = np.where(ok[:, None], h, topo.offsets[faces][:, None])  # any valid half-edge
+
+    def turn(g):  # the next outgoing half-edge counter-clockwise around its origin
+        return np.maximum(topo.twin[topo.prev[g]], 0)
+
+    def head(g):
+        return topo.origin[topo.next[g]]
+
+    across = topo.origin[topo.prev[np.maximum(topo.twin[h], 0)]]
+    second = turn(turn(turn(h)))  # past the other corner and the vertex across it
+    grid = np.concatenate([corner, across, head(second), head(turn(second))], axis=1)
+    grid = grid[:, [0, 1, 2, 3, 4, 5, 6, 9, 7, 10, 8, 11]]
+    return ok, np.where(ok[:, None], grid, 0), None
+
+
+_LOOP_LATTICE = np.array([(i / 4, j / 4) for i in range(5) for j in range(5 - i)])
+_QUARTIC_POWERS = np.array([(a, b) for a in range(5) for b in range(5 - a)])
+
+
+def _monomials(uv: np.ndarray, du: int = 0, dv: int = 0) -> np.ndarray:
+    """`(n, 15)` the monomials `u^a v^b` (a + b <= 4), differentiated `du`, `dv` times."""
+    a, b = _QUARTIC_POWERS[:, 0], _QUARTIC_POWERS[:, 1]
+    coef = np.ones(len(a))
+    for k in range(du):
+        coef = coef * (a - k)
+    for k in range(dv):
+        coef = coef * (b - k)
+    pa, pb = np.maximum(a - du, 0), np.maximum(b - dv, 0)
+    return coef * uv[:, :1] ** pa * uv[:, 1:] ** pb
+
+
+@functools.cache
+def _box_spline_coefficients() -> np.ndarray:
+    """`(15, 12)` monomial coefficients of the 12 basis functions of a regular Loop
+    patch (the three-direction quartic box spline on one triangle).
+
+    The patch is one quartic polynomial (Stam 1998, "Evaluation of Loop subdivision
+    surfaces"), so it is fixed by its values at the 15 points of the triangle's
+    quartic lattice, which are vertices after two levels: their limits (Loop's limit
+    stencils after refining a regular torus locally, the patches switched off) give
+    the polynomials. The tests check the patch at other points against refinement."""
+    n = 8
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    idx = lambda a, b: (a % n) * n + (b % n)
+    a, b, c, d = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1))
+    faces = np.concatenate([np.stack([a, b, c], -1), np.stack([a, c, d], -1)]).reshape(-1, 3)
+    mesh = Mesh(np.zeros((n * n, 0)), faces)
+    table, *_ = _stencils(mesh, Loop(), np.zeros(15, np.int64), _LOOP_LATTICE,
+                          np.full(15, -1), 2, np.inf, patches=False)  # fmt: skip
+    values = table.take_rows(np.arange(15)).dense()
+    topo = build_topology(faces, n * n)
+    _, grid, _ = _triangle_patches(topo, np.zeros(n * n, bool), np.zeros(1, np.int64))
+    outside = np.delete(values, grid[0], axis=1)
+    assert np.abs(outside).max() < 1e-12, "a regular Loop patch reaches past its 12 points"
+    return np.linalg.solve(_monomials(_LOOP_LATTICE), values[:, grid[0]])
+
+
+def _box_spline_weights(_, uv: np.ndarray, jac: np.ndarray) -> np.ndarray:
+    """`(n, 6, 12)` weights of a regular Loop patch's control points."""
+    coef = _box_spline_coefficients()
+    orders = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]
+    local = np.stack([_monomials(uv, a, b) @ coef for a, b in orders], axis=1)
+    return _to_face_frame(local, jac)
+
+
+# Loop's children of triangle [p0, p1, p2] (`Loop.level`): 4f + k for the triangle at
+# corner k (origin there, u towards the midpoint of its outgoing side, v towards that
+# of its incoming one) and 4f + 3 for the middle one [m01, m12, m20].
+_TRIANGLE_MAP = np.array(
+    [[[2, 0], [0, 2]], [[0, 2], [-2, -2]], [[-2, -2], [2, 0]], [[2, 2], [-2, 0]]], np.float64
+)
+_TRIANGLE_SHIFT = np.array([[0, 0], [0, 2], [2, 0], [-1, 1]], np.float64)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Family:
+    """What differs between Catmull-Clark's quads and Loop's triangles."""
+
+    corners: int
+    regular: Callable  # (topo, irregular, faces) -> ok, control vertices, extra
+    weights: Callable  # (extra, uv, jac) -> (n, 6, control vertices)
+    cap: Callable  # (uv, jac) -> (n, 6, corners)
+
+    def children(self, topo: Topology, where, local, sub):
+        """The child face holding each point, and the map to its coordinates."""
+        u, v = local[:, 0], local[:, 1]
+        if self.corners == 4:
+            quad = sub < 0
+            k = np.where(u < 0.5, np.where(v < 0.5, 0, 3), np.where(v < 0.5, 1, 2))
+            q_map = np.where(quad[:, None, None], _QUADRANT_MAP[k], np.eye(2))
+            q_shift = np.where(quad[:, None], _QUADRANT_SHIFT[k], 0.0)
+            return topo.offsets[where] + np.where(quad, k, sub), q_map, q_shift
+        k = np.where(u + v <= 0.5, 0, np.where(u >= 0.5, 1, np.where(v >= 0.5, 2, 3)))
+        return 4 * where + k, _TRIANGLE_MAP[k], _TRIANGLE_SHIFT[k]
+
+
+_QUADS = _Family(4, _quad_patches, _bicubic_weights, _bilinear_weights)
+_TRIANGLES = _Family(3, _triangle_patches, _box_spline_weights, _linear_weights)
 
 
 def _rows(weights: np.ndarray, points: np.ndarray, patches: _Patches, queries: np.ndarray,
@@ -233,7 +363,8 @@ def _one_rings(refined: _Patches, targets: np.ndarray) -> tuple[_Patches, np.nda
     m = len(targets)
     cv = corners.reshape(-1)
     counts = start[cv + 1] - start[cv]
-    ring = np.repeat(np.repeat(np.arange(m), 4), counts)
+    K = faces.shape[1]
+    ring = np.repeat(np.repeat(np.arange(m), K), counts)
     face = order[np.repeat(start[cv], counts) + _ranks(counts)] // faces.shape[1]
     keys = np.unique(ring * F + face)
     ring, face = keys // F, keys % F
@@ -251,7 +382,7 @@ def _one_rings(refined: _Patches, targets: np.ndarray) -> tuple[_Patches, np.nda
         eorder = np.argsort(ends, kind="stable")
         estart = np.searchsorted(ends[eorder], np.arange(V + 1))
         ecount = estart[cv + 1] - estart[cv]
-        r = np.repeat(np.repeat(np.arange(m), 4), ecount)
+        r = np.repeat(np.repeat(np.arange(m), K), ecount)
         c = eorder[np.repeat(estart[cv], ecount) + _ranks(ecount)] // 2
         key = np.unique(r * len(refined.creases) + c)
         r, c = key // len(refined.creases), key % len(refined.creases)
@@ -279,82 +410,76 @@ def _refine(scheme, p: _Patches, topo: Topology, num_base: int) -> _Patches:
 
 
 def _stencils(mesh: Mesh, scheme, face: np.ndarray, uv: np.ndarray, subface: np.ndarray,
-              max_depth: int, budget: float):  # fmt: skip
-    """Rows of position and derivative stencils for every point, whether each was
-    evaluated on a regular patch, and at which level."""
-    N, V0 = len(face), mesh.num_vertices
-    patches = _Patches(mesh.faces, V0, mesh.creases, mesh.corners, mesh.crease_sharpness,
+              max_depth: int, budget: float, patches: bool = True):  # fmt: skip
+    """Rows of position and derivative stencils for every point (kind-major: `k * N +
+    point`), whether each was evaluated on a regular patch, at which level, and the
+    tangent rows `normals` uses for the points that were not (and their indices).
+    `patches=False` refines every point to `max_depth` (for `_box_spline_coefficients`)."""
+    family = _TRIANGLES if isinstance(scheme, Loop) else _QUADS
+    N, V0, K = len(face), mesh.num_vertices, family.corners
+    current = _Patches(mesh.faces, V0, mesh.creases, mesh.corners, mesh.crease_sharpness,
                        mesh.corner_sharpness, None)  # fmt: skip
-    topo = patches.topology(scheme)
+    topo = current.topology(scheme)
     blocks, exact, depth = [], np.zeros(N, bool), np.zeros(N, np.int64)
     cap, capped = Sparse.build([], [], [], (0, V0)), np.zeros(0, np.int64)
     queries, where, local, sub = np.arange(N), face.copy(), uv.copy(), subface.copy()
     jac = np.broadcast_to(np.eye(2), (N, 2, 2)).copy()
     for level in range(max_depth + 1):
-        ok, grid, sides = _regular_patches(topo, _irregular_vertices(patches), where)
-        ok &= sub < 0  # a point on a sub-face of an n-gon starts at level 1
+        ok, grid, extra = family.regular(topo, _irregular_vertices(current), where)
+        ok &= (sub < 0) & patches  # a point on a sub-face of an n-gon starts at level 1
         if np.any(ok):
-            w = _patch_weights(sides[ok], local[ok], jac[ok])
-            blocks.append(_rows(w, grid[ok], patches, queries[ok], N, V0))
+            w = family.weights(None if extra is None else extra[ok], local[ok], jac[ok])
+            blocks.append(_rows(w, grid[ok], current, queries[ok], N, V0))
             exact[queries[ok]], depth[queries[ok]] = True, level
         rest = ~ok
         queries, where, local, jac, sub = (a[rest] for a in (queries, where, local, jac, sub))
         if not len(queries):
             break
         if level == max_depth:
-            # Within 2^-max_depth of an irregular vertex: the bilinear patch of the
-            # limit positions of the sub-face's corners.
-            limit = scheme.limit(topo, patches.creases, patches.corners)
-            corners = topo.origin[topo.offsets[where][:, None] + np.arange(4)]
+            # Within 2^-max_depth of an irregular vertex: the bilinear (linear) patch
+            # of the limit positions of the sub-face's corners.
+            limit = scheme.limit(topo, current.creases, current.corners)
+            corners = topo.origin[topo.offsets[where][:, None] + np.arange(K)]
             used, inverse = np.unique(corners, return_inverse=True)
             at_corners = limit.position.take_rows(used)
-            if patches.weights is not None:
-                at_corners = at_corners @ patches.weights
-            w = _bilinear_weights(local, jac)
-            at = dataclasses.replace(patches, weights=at_corners)
-            blocks.append(_rows(w, inverse.reshape(-1, 4), at, queries, N, V0))
+            if current.weights is not None:
+                at_corners = at_corners @ current.weights
+            w = family.cap(local, jac)
+            at = dataclasses.replace(current, weights=at_corners)
+            blocks.append(_rows(w, inverse.reshape(-1, K), at, queries, N, V0))
             # Normals: the exact limit tangents where the vertex (corner 0 of every
             # sub-face below level 1) is smooth, the secants elsewhere.
-            K = len(queries)
-            secant = _rows(w, inverse.reshape(-1, 4), at, np.arange(K), K, V0)
-            secant = secant.take_rows(np.arange(K, 3 * K))
+            M = len(queries)
+            secant = _rows(w, inverse.reshape(-1, K), at, np.arange(M), M, V0)
+            secant = secant.take_rows(np.arange(M, 3 * M))
             vertex = corners[:, 0]
-            exact_tangents = Sparse.stack([limit.tangent_u.take_rows(vertex),
-                                           limit.tangent_v.take_rows(vertex)])  # fmt: skip
-            if patches.weights is not None:
-                exact_tangents = exact_tangents @ patches.weights
+            tangents = Sparse.stack([limit.tangent_u.take_rows(vertex),
+                                     limit.tangent_v.take_rows(vertex)])  # fmt: skip
+            if current.weights is not None:
+                tangents = tangents @ current.weights
             use = np.tile(limit.smooth[vertex], 2)
-            keep_secant, keep_exact = ~use[secant.rows], use[exact_tangents.rows]
-            cap = Sparse.build(
-                np.concatenate([secant.rows[keep_secant], exact_tangents.rows[keep_exact]]),
-                np.concatenate([secant.cols[keep_secant], exact_tangents.cols[keep_exact]]),
-                np.concatenate([secant.weights[keep_secant], exact_tangents.weights[keep_exact]]),
-                (2 * K, V0),
-            )
+            a, b = ~use[secant.rows], use[tangents.rows]
+            cap = Sparse.build(*(np.concatenate([x[a], y[b]]) for x, y in (
+                (secant.rows, tangents.rows), (secant.cols, tangents.cols),
+                (secant.weights, tangents.weights))), (2 * M, V0))  # fmt: skip
             capped = queries
             depth[queries] = level
             break
         if level == 0:
             _check_surface_memory(topo, scheme, 1, budget, who="SurfacePoints")
-        quad = sub < 0
-        u, v = local[:, 0], local[:, 1]
-        quadrant = np.where(u < 0.5, np.where(v < 0.5, 0, 3), np.where(v < 0.5, 1, 2))
-        corner = np.where(quad, quadrant, sub)
-        q_map = np.where(quad[:, None, None], _QUADRANT_MAP[quadrant], np.eye(2))
-        q_shift = np.where(quad[:, None], _QUADRANT_SHIFT[quadrant], 0.0)
+        children, q_map, q_shift = family.children(topo, where, local, sub)
         local = np.einsum("nab,nb->na", q_map, local) + q_shift
         jac = np.einsum("nab,nbc->nac", q_map, jac)
         sub = np.full(len(queries), -1, np.int64)
-        children = topo.offsets[where] + corner
-        refined = _refine(scheme, patches, topo, V0)
+        refined = _refine(scheme, current, topo, V0)
         targets, which = np.unique(children, return_inverse=True)
         try:
-            patches, index = _one_rings(refined, targets)
-            topo = patches.topology(scheme)
+            current, index = _one_rings(refined, targets)
+            topo = current.topology(scheme)
             where = index[which.reshape(-1)]
         except ValueError:  # a ring that is not a disk (tiny meshes): keep them all
-            patches, where = refined, children
-            topo = patches.topology(scheme)
+            current, where = refined, children
+            topo = current.topology(scheme)
     blocks.append(Sparse.build([], [], [], (_KINDS * N, V0)))
     table = Sparse.build(*(np.concatenate(a) for a in zip(*(
         (b.rows, b.cols, b.weights) for b in blocks))), (_KINDS * N, V0))  # fmt: skip
@@ -362,8 +487,8 @@ def _stencils(mesh: Mesh, scheme, face: np.ndarray, uv: np.ndarray, subface: np.
 
 
 class SurfacePoints(eqx.Module):
-    r"""Points on the Catmull-Clark limit surface at any `(face, u, v)`: positions,
-    first and second derivatives and normals, as stencil tables.
+    r"""Points on the limit surface of Catmull-Clark or Loop at any `(face, u, v)`:
+    positions, first and second derivatives and normals, as stencil tables.
 
     Each point's limit position and derivatives are fixed linear combinations of the
     base vertices. They are found once, on the host, and stored as stencil tables, so
@@ -372,39 +497,44 @@ class SurfacePoints(eqx.Module):
     stencils at locations).
 
     **Parametrisation.** On a quad face `[c0, c1, c2, c3]`, `(u, v)` in $[0, 1]^2$ has
-    `(0, 0)` at `c0`, `(1, 0)` at `c1`, `(1, 1)` at `c2` and `(0, 1)` at `c3`; the
-    derivatives are with respect to these `u` and `v`. A face of `k != 4` vertices is
-    split into `k` quads by the first level (OpenSubdiv's ptex sub-faces): give
-    `subfaces[i] = j` for the quad at its corner `j`, whose `(u, v)` has `(0, 0)` at
-    the corner, `(1, 0)` at the midpoint of the edge to corner `j + 1`, `(1, 1)` at the
-    face's centroid point and `(0, 1)` at the midpoint of the edge from corner `j - 1`.
+    `(0, 0)` at `c0`, `(1, 0)` at `c1`, `(1, 1)` at `c2` and `(0, 1)` at `c3`; on a
+    triangle `[c0, c1, c2]` (Loop), `u, v >= 0` with `u + v <= 1` are the weights of
+    `c1` and `c2` (`(0, 0)` at `c0`, `(1, 0)` at `c1`, `(0, 1)` at `c2`). The
+    derivatives are with respect to these `u` and `v`. For Catmull-Clark, a face of
+    `k != 4` vertices is split into `k` quads by the first level (OpenSubdiv's ptex
+    sub-faces): give `subfaces[i] = j` for the quad at its corner `j`, whose `(u, v)`
+    has `(0, 0)` at the corner, `(1, 0)` at the midpoint of the edge to corner
+    `j + 1`, `(1, 1)` at the face's centroid point and `(0, 1)` at the midpoint of the
+    edge from corner `j - 1`.
 
-    **Exactness.** Where the sub-face containing a point is regular (its corners are
-    smooth vertices of valence 4, or boundary, crease or corner vertices the
-    bicubic patch with mirrored phantom points reproduces), the point is evaluated
-    exactly on the bicubic B-spline patch (`exact` is True). Faces that are not
-    regular are refined locally towards the point, up to `max_depth` levels; a point
-    that is then still next to an irregular vertex (an extraordinary vertex, a dart, a
-    crease end, a boundary vertex of another valence) lies within $2^{-\text{max\_depth}}$
-    of the face's size from it, and is evaluated on the bilinear patch of the limit
-    positions of the last sub-face's corners (`exact` is False): its position is
-    exact at the vertex itself and within about $4^{-\text{max\_depth}}$ times the
-    surface's curvature times the squared face size elsewhere; its first derivatives
-    are the secant over that sub-face and its second derivatives those of a bilinear
-    patch. At an extraordinary vertex the limit surface has no parametric derivatives
-    (they vanish or diverge like $r^{\log_2(1/\lambda) - 1}$, $\lambda$ the
-    subdominant eigenvalue), but it has a normal: `normals` there is the exact limit
-    normal of the vertex where it is smooth (Halstead, Kass and DeRose's tangent
-    stencils, as [`jaxsubdiv.surfaces.Limit`][]), the secant normal elsewhere
-    (`docs/surfaces.md` has the measured errors).
+    **Exactness.** Where the sub-face containing a point is a regular patch, the point
+    is evaluated exactly on it (`exact` is True): for Catmull-Clark, a quad whose
+    corners are smooth vertices of valence 4, or boundary, crease or corner vertices
+    that the bicubic B-spline patch with mirrored phantom points reproduces; for Loop,
+    a triangle whose corners are smooth interior vertices of valence 6 (the quartic box
+    spline; Stam 1998). Other faces are refined locally towards the point, up to
+    `max_depth` levels. A point still next to an irregular vertex then (an
+    extraordinary vertex, a dart, a crease end, a boundary vertex of another valence;
+    for Loop also any boundary or crease vertex) lies within $2^{-\text{max\_depth}}$
+    of the face's size from it, and is evaluated on the bilinear (Loop: linear) patch
+    of the limit positions of the last sub-face's corners (`exact` is False): its
+    position is exact at the vertex itself and within about $4^{-\text{max\_depth}}$
+    times the curvature times the squared face size elsewhere; its first derivatives
+    are the secants over that sub-face and its second derivatives those of that patch.
+    At an extraordinary vertex the limit surface has no parametric derivatives (they
+    vanish or diverge like $r^{\log_2(1/\lambda) - 1}$, $\lambda$ the subdominant
+    eigenvalue), but it has a normal: `normals` there is the exact limit normal of the
+    vertex where it is smooth (the tangent stencils of [`jaxsubdiv.surfaces.Limit`][]),
+    the secant normal elsewhere (`docs/surfaces.md` has the measured errors).
 
     Points on semi-sharp edges are refined until the sharpness has decayed (at most 10
-    levels). Available for `CatmullClark()` with either boundary interpolation and
-    crease method.
+    levels). Available for `CatmullClark()` and `Loop()` with either boundary
+    interpolation and crease method.
 
     Attributes: `position` (`N` rows), `first` (`2N`: d/du then d/dv), `second` (`3N`:
     d2/du2, d2/dudv, d2/dv2) stencil tables; `exact` and `depth` (levels refined) per
-    point.
+    point; `cap_tangents` and `capped`, the tangents `normals` uses at the points not
+    on a regular patch.
     """
 
     position: StencilTable
@@ -430,11 +560,13 @@ class SurfacePoints(eqx.Module):
         """**Arguments:**
 
         - `mesh`: the base [`jaxsubdiv.surfaces.Mesh`][] (only its topology is used).
-        - `scheme`: `CatmullClark()`.
+        - `scheme`: `CatmullClark()` or `Loop()`.
         - `faces`: `(N,)` face index of each point.
-        - `uv`: `(N, 2)` coordinates in $[0, 1]^2$ on the face (or its sub-face).
-        - `subfaces`: `(N,)` for points on faces that are not quads: the corner whose
-          quad of the first level holds the point (`-1` on quads, the default).
+        - `uv`: `(N, 2)` coordinates on the face (or its sub-face): in $[0, 1]^2$ on
+          quads, with `u + v <= 1` on triangles (Loop).
+        - `subfaces`: `(N,)` for Catmull-Clark points on faces that are not quads: the
+          corner whose quad of the first level holds the point (`-1` on quads, the
+          default).
         - `max_depth`: the most levels a face is refined towards a point (10 to 24;
           default 16: deeper, the tangents at a vertex lose digits to cancellation as
           the sub-face shrinks). Keyword only.
@@ -444,16 +576,24 @@ class SurfacePoints(eqx.Module):
           only.
         """
         _check(mesh, scheme)
-        if not isinstance(scheme, CatmullClark):
+        if not isinstance(scheme, (CatmullClark, Loop)):
             raise ValueError(
-                f"SurfacePoints evaluates `CatmullClark()` surfaces only; got "
-                f"{type(scheme).__name__}(). Use `Limit` for the limit at the vertices "
-                "(Loop), or a `Refiner` for points as close to the surface as needed."
+                f"SurfacePoints evaluates `CatmullClark()` and `Loop()` surfaces; got "
+                f"{type(scheme).__name__}(). Use a `Refiner` for points as close to its "
+                "surface as needed."
+            )
+        if isinstance(scheme, Loop) and np.any(mesh.face_sizes() != 3):
+            f = int(np.argmax(mesh.face_sizes() != 3))
+            raise ValueError(
+                f"Loop subdivision needs a triangle mesh, but face {f} has "
+                f"{int(mesh.face_sizes()[f])} vertices. Triangulate the mesh, or use "
+                "`CatmullClark()`."
             )
         max_depth = static_int(max_depth, "max_depth", minimum=10, maximum=24,
                                why=" (semi-sharp tags last up to 10 levels)")  # fmt: skip
         budget = checked_budget(memory_budget)
-        face, uv, subface = _checked_points(mesh, faces, uv, subfaces)
+        face, uv, subface = _checked_points(mesh, faces, uv, subfaces,
+                                            3 if isinstance(scheme, Loop) else 4)  # fmt: skip
         need = _BYTES_PER_WEIGHT * _KINDS * int(_support_sizes(mesh, face).sum())
         if need > budget:
             raise ValueError(
@@ -529,7 +669,7 @@ def _support_sizes(mesh: Mesh, face: np.ndarray) -> np.ndarray:
     return np.diff(ring.indptr)[inverse.reshape(-1)]
 
 
-def _checked_points(mesh: Mesh, faces, uv, subfaces):
+def _checked_points(mesh: Mesh, faces, uv, subfaces, patch_size: int):
     """Face indices, coordinates and sub-faces as numpy arrays, or a `ValueError`
     naming the argument and the fix."""
     face = np.asarray(faces)
@@ -545,9 +685,15 @@ def _checked_points(mesh: Mesh, faces, uv, subfaces):
     if uv.shape != (len(face), 2):
         raise ValueError(f"`uv` must have shape ({len(face)}, 2), one (u, v) per face index; "
                          f"got {uv.shape}.")  # fmt: skip
-    if not np.all(np.isfinite(uv)) or np.any((uv < 0) | (uv > 1)):
-        i = int(np.argmax(~np.all(np.isfinite(uv) & (uv >= 0) & (uv <= 1), axis=1)))
-        raise ValueError(f"`uv` must lie in [0, 1]^2; point {i} is {uv[i].tolist()}.")
+    inside = np.all(np.isfinite(uv) & (uv >= 0) & (uv <= 1), axis=1)
+    if patch_size == 3:
+        inside &= uv.sum(axis=1) <= 1 + 1e-12
+    if not np.all(inside):
+        i = int(np.argmax(~inside))
+        where = "the triangle u, v >= 0, u + v <= 1" if patch_size == 3 else "[0, 1]^2"
+        raise ValueError(f"`uv` must lie in {where}; point {i} is {uv[i].tolist()}.")
+    if patch_size == 3:  # a point a rounding error outside goes back onto the side
+        uv = uv / np.maximum(uv.sum(axis=1, keepdims=True), 1)
     sizes = mesh.face_sizes()[face]
     if subfaces is None:
         subface = np.full(len(face), -1, np.int64)
@@ -557,13 +703,14 @@ def _checked_points(mesh: Mesh, faces, uv, subfaces):
             raise ValueError(f"`subfaces` must be {len(face)} integers, one per point; got "
                              f"shape {subface.shape} of {subface.dtype}.")  # fmt: skip
         subface = subface.astype(np.int64)
-    quad = sizes == 4
+    quad = sizes == patch_size
     bad = (quad & (subface != -1)) | (~quad & ((subface < 0) | (subface >= sizes)))
     if np.any(bad):
         i = int(np.argmax(bad))
         if quad[i]:
-            raise ValueError(f"Point {i} is on face {int(face[i])}, a quad: its `subfaces` "
-                             f"entry must be -1, got {int(subface[i])}.")  # fmt: skip
+            raise ValueError(f"Point {i} is on face {int(face[i])}, which has {patch_size} "
+                             f"vertices: its `subfaces` entry must be -1, got "
+                             f"{int(subface[i])}.")  # fmt: skip
         raise ValueError(
             f"Point {i} is on face {int(face[i])}, which has {int(sizes[i])} vertices: give "
             f"`subfaces[{i}]` in [0, {int(sizes[i]) - 1}], the corner whose quad of the "
