@@ -1,0 +1,164 @@
+"""`SurfacePoints` against OpenSubdiv's own evaluation at (face, u, v) (Bfr, 3.5).
+
+Not a timing benchmark: a verification script that makes the reference data of
+`tests/test_surface_points.py::test_matches_opensubdiv_bfr` (`tests/data/osd_surface_points.npz`)
+and reports the differences. It compiles `osd_evaluate.cpp` with g++ against Debian's
+`libosd-dev` (`apt-get install libosd-dev`), then, for the meshes of the tests (every
+kind of corner, semi-sharp creases, both boundary options and crease methods,
+Catmull-Clark and Loop), evaluates random points (a third of them within 1e-3 to 0.1 of a
+face corner) on quads (Catmull-Clark) and triangles (Loop): position, first and second
+derivatives, Bfr with its approximation levels at their maximum (10).
+
+Bfr evaluates the limit exactly where the face becomes a regular patch within 10 levels
+of refinement, and approximates it closer to an irregular vertex (Gregory patches);
+`SurfacePoints` refines up to `max_depth` (16). So the points `SurfacePoints` puts on a
+regular patch within 9 levels are compared exactly; the others are reported apart.
+
+```bash
+apt-get install libosd-dev
+python benchmarks/osd_surface_points.py     # writes the .npz and results/osd_surface_points.md
+```
+"""
+
+import datetime
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+import jax
+
+
+jax.config.update("jax_enable_x64", True)
+
+import numpy as np  # noqa: E402
+
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))
+from test_surface_points import CASES  # noqa: E402
+
+import jaxsubdiv.surfaces as jss  # noqa: E402
+
+
+DATA = ROOT / "tests" / "data" / "osd_surface_points.npz"
+RESULTS = ROOT / "benchmarks" / "results" / "osd_surface_points.md"
+
+
+def compile_driver() -> pathlib.Path:
+    binary = pathlib.Path(tempfile.mkdtemp()) / "osd_evaluate"
+    subprocess.run(["g++", "-O2", "-std=c++17", "-o", str(binary),
+                    str(ROOT / "benchmarks" / "osd_evaluate.cpp"), "-losdCPU"], check=True)  # fmt: skip
+    return binary
+
+
+def scheme_options(scheme):
+    name = "loop" if isinstance(scheme, jss.Loop) else "catmark"
+    return name, scheme.boundary_interpolation, scheme.crease_method
+
+
+def run_osd(binary, mesh, scheme, face, uv, level=10):
+    name, boundary, creasing = scheme_options(scheme)
+    rows = [r[r >= 0] for r in mesh.faces]
+    sharp = lambda s: 10.0 if not np.isfinite(s) else float(s)
+    lines = [f"{name} {boundary} {creasing} {level}",
+             f"{mesh.num_vertices} {len(rows)} {len(mesh.creases)} {len(mesh.corners)} {len(face)}"]  # fmt: skip
+    lines += [" ".join(f"{x:.17g}" for x in v) for v in np.asarray(mesh.vertices)]
+    lines += [f"{len(r)} " + " ".join(map(str, r)) for r in rows]
+    lines += [f"{a} {b} {sharp(s)}" for (a, b), s in zip(mesh.creases, mesh.crease_sharpness)]
+    lines += [f"{v} {sharp(s)}" for v, s in zip(mesh.corners, mesh.corner_sharpness)]
+    order = np.argsort(face, kind="stable")  # one surface per face
+    lines += [f"{face[i]} {uv[i, 0]:.17g} {uv[i, 1]:.17g}" for i in order]
+    done = subprocess.run([str(binary)], input="\n".join(lines) + "\n", capture_output=True,
+                          text=True, check=True)  # fmt: skip
+    values = np.full((len(face), 18), np.nan)
+    for i, line in zip(order, done.stdout.splitlines()):
+        if line != "invalid":
+            values[i] = np.array(line.split(), float)
+    return values.reshape(-1, 6, 3)
+
+
+def points_for(mesh, scheme, seed=0, count=200):
+    corners = 3 if isinstance(scheme, jss.Loop) else 4
+    faces = np.flatnonzero(mesh.face_sizes() == corners)
+    rng = np.random.default_rng(seed)
+    face = rng.choice(faces, count)
+    uv = rng.uniform(size=(count, 2))
+    if corners == 3:
+        uv = np.where(uv.sum(1, keepdims=True) > 1, 1 - uv, uv)
+    near = slice(0, count // 3)
+    uv[near] *= rng.uniform(1e-3, 0.1, (count // 3, 1))
+    return face, uv
+
+
+def ours(mesh, scheme, face, uv):
+    points = jss.SurfacePoints(mesh, scheme, face, uv)
+    v = mesh.vertices
+    values = [points.positions(v), *points.derivatives(v), *points.second_derivatives(v)]
+    return np.stack([np.asarray(x) for x in values], 1), np.asarray(points.depth)
+
+
+def second_by_differences(evaluate, face, uv, h=1e-6):
+    """Central differences of the first derivatives `evaluate` returns at `uv +- h`:
+    d2/du2, d2/dudv, d2/dv2, for checking the second derivatives it returns."""
+    steps = [uv + [h, 0], uv - [h, 0], uv + [0, h], uv - [0, h]]
+    values = [evaluate(face, np.clip(p, 0, 1)) for p in steps]
+    du_u = (values[0][:, 1] - values[1][:, 1]) / (2 * h)
+    du_v = (values[2][:, 1] - values[3][:, 1]) / (2 * h)
+    dv_v = (values[2][:, 2] - values[3][:, 2]) / (2 * h)
+    return np.stack([du_u, du_v, dv_v], 1)
+
+
+def main():
+    binary = compile_driver()
+    store, lines = {}, [
+        "# `SurfacePoints` against OpenSubdiv's Bfr at (face, u, v)",
+        "",
+        f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M UTC}; OpenSubdiv 3.5.0 "
+        "(Debian's libosd-dev), Bfr in double precision with approximation levels 10; "
+        "`python benchmarks/osd_surface_points.py`. 200 random points per mesh (a third "
+        "within 1e-3 to 0.1 of a corner), on quads (Catmull-Clark) or triangles (Loop). "
+        "Largest difference relative to the mesh's size (position) and to each "
+        "derivative's largest magnitude over the points. *Self-check*: the points (of "
+        "those within 9 levels and at least 1e-5 inside the face) whose second derivatives "
+        "differ from the central differences (h = 1e-6) of the same evaluator's first "
+        "derivatives by more than 1e-4 of their magnitude, for Bfr and for ours.",
+        "",
+        "| mesh | points on a patch within 9 levels | position | d/du, d/dv | second "
+        "| points deeper | position | d/du, d/dv | second | self-check: Bfr | ours |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for k, (name, mesh, scheme) in enumerate(CASES):
+        face, uv = points_for(mesh, scheme, seed=k)
+        want = run_osd(binary, mesh, scheme, face, uv)
+        got, depth = ours(mesh, scheme, face, uv)
+        size = np.ptp(np.asarray(mesh.vertices), axis=0).max()
+        scale = np.array([size, *[np.abs(want[:, j]).max() for j in range(1, 6)]])
+        error = np.abs(got - want).max(-1) / scale  # (N, 6)
+        shallow = depth < 10
+        cells = []
+        for part in (shallow, ~shallow):
+            e = error[part]
+            cells += [f"{part.sum()}", *(f"{x:.1e}" if len(e) else "-" for x in
+                      (e[:, 0].max(initial=0), e[:, 1:3].max(initial=0), e[:, 3:].max(initial=0)))]  # fmt: skip
+        far = 1 - 1e-5
+        inside = shallow & np.all((uv > 1e-5) & (uv < far), axis=1)
+        if isinstance(scheme, jss.Loop):
+            inside &= uv.sum(1) < far
+        for evaluate, values in ((lambda f, p: run_osd(binary, mesh, scheme, f, p), want),
+                                 (lambda f, p: ours(mesh, scheme, f, p)[0], got)):  # fmt: skip
+            differences = second_by_differences(evaluate, face[inside], uv[inside])
+            gap = np.abs(values[inside, 3:] - differences).max(-1).max(-1)
+            magnitude = np.abs(differences).max(-1).max(-1)
+            wrong = gap > 1e-4 * np.maximum(magnitude, 1e-3 * scale[3:].max())
+            cells.append(f"{int(wrong.sum())} of {int(inside.sum())}")
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        print(lines[-1], flush=True)
+        store[f"{k}_face"], store[f"{k}_uv"], store[f"{k}_osd"] = face, uv, want
+    store["names"] = np.array([c[0] for c in CASES])
+    np.savez_compressed(DATA, **store)
+    RESULTS.write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
