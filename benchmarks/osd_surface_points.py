@@ -98,6 +98,71 @@ def ours(mesh, scheme, face, uv):
     return np.stack([np.asarray(x) for x in values], 1), np.asarray(points.depth)
 
 
+def osd_refine(binary, mesh, scheme, levels):
+    """The vertices of `levels` uniform levels of OpenSubdiv (Far::PrimvarRefiner)."""
+    name, boundary, creasing = scheme_options(scheme)
+    rows = [r[r >= 0] for r in mesh.faces]
+    sharp = lambda s: 10.0 if not np.isfinite(s) else float(s)
+    lines = [f"{name} {boundary} {creasing} {-levels}",
+             f"{mesh.num_vertices} {len(rows)} {len(mesh.creases)} {len(mesh.corners)} 0"]  # fmt: skip
+    lines += [" ".join(f"{x:.17g}" for x in v) for v in np.asarray(mesh.vertices)]
+    lines += [f"{len(r)} " + " ".join(map(str, r)) for r in rows]
+    lines += [f"{a} {b} {sharp(s)}" for (a, b), s in zip(mesh.creases, mesh.crease_sharpness)]
+    lines += [f"{v} {sharp(s)}" for v, s in zip(mesh.corners, mesh.corner_sharpness)]
+    out = subprocess.run([str(binary)], input="\n".join(lines) + "\n", capture_output=True,
+                         text=True, check=True).stdout  # fmt: skip
+    return np.array([line.split() for line in out.splitlines()], float)
+
+
+def chaikin_refinement(binary) -> list[str]:
+    """Uniform refinement against OpenSubdiv's, each refined vertex matched to the
+    nearest of ours, for semi-sharp creases under both methods; and, where Chaikin
+    differs, the weight OpenSubdiv's differing edge point blends the crease and smooth
+    rules with."""
+    from test_surface_points import GRID
+
+    out = ["", "Uniform refinement against OpenSubdiv's `Far::PrimvarRefiner` (open grid, "
+           "creases 7-8, 8-9, 9-10 with the sharpness given): the largest distance from an "
+           "OpenSubdiv vertex to the nearest of ours, levels 1 / 2 / 3.", "",
+           "| sharpness | uniform | chaikin |", "|---|---|---|"]  # fmt: skip
+    for values in ([1.5, 2.25, 0.75], [3.0, 1.0, 0.5], [2.0, 2.0, 2.0]):
+        mesh = jss.Mesh(*GRID, creases=[[7, 8], [8, 9], [9, 10]], crease_sharpness=values)
+        cells = []
+        for method in ("uniform", "chaikin"):
+            scheme = jss.CatmullClark(crease_method=method)
+            gaps = []
+            for levels in (1, 2, 3):
+                theirs = osd_refine(binary, mesh, scheme, levels)
+                mine = np.asarray(jss.Refiner(mesh, scheme, levels)(mesh.vertices))
+                gaps.append(np.abs(theirs[:, None] - mine[None]).max(-1).min(1).max())
+            cells.append(" / ".join(f"{g:.1e}" for g in gaps))
+        out.append(f"| {values} | " + " | ".join(cells) + " |")
+    # The differing point at level 2 of the first case: its OpenSubdiv blend weight.
+    mesh = jss.Mesh(*GRID, creases=[[7, 8], [8, 9], [9, 10]], crease_sharpness=[1.5, 2.25, 0.75])
+    scheme = jss.CatmullClark(crease_method="chaikin")
+    level1 = jss.refine_mesh(mesh, scheme, 1)
+    theirs = osd_refine(binary, mesh, scheme, 2)
+    mine = np.asarray(jss.Refiner(level1, scheme, 1)(level1.vertices))
+    gap = np.abs(theirs[:, None] - mine[None]).max(-1)
+    i = int(gap.min(1).argmax())
+    j = int(gap[i].argmin())
+    e = j - level1.num_vertices  # an edge point of level 1's edge e
+    rows = [r[r >= 0] for r in level1.faces]
+    edges = np.unique(np.sort(np.concatenate([np.stack([r, np.roll(r, -1)], 1) for r in rows]), 1), axis=0)
+    a, b = edges[e]
+    tags = [k for k, pair in enumerate(level1.creases.tolist()) if sorted(pair) != [a, b]]
+    smooth = jss.Mesh(level1.vertices, level1.faces, creases=level1.creases[tags],
+                      crease_sharpness=level1.crease_sharpness[tags])  # fmt: skip
+    smooth_point = np.asarray(jss.Refiner(smooth, scheme, 1)(level1.vertices))[j]
+    weight = (theirs[i] - smooth_point) @ (mine[j] - smooth_point) / np.sum((mine[j] - smooth_point) ** 2)
+    sharpness = level1.crease_sharpness[[k for k in range(len(level1.creases)) if k not in tags]][0]
+    out += ["", f"Chaikin, sharpness [1.5, 2.25, 0.75], level 2: the one differing point is "
+            f"the edge point of level 1's edge ({a}, {b}), sharpness {sharpness:g}, one of "
+            f"whose halves decays; OpenSubdiv's point is the blend of the crease and smooth "
+            f"rules with weight {weight:.6f} (ours: 1, the crease rule)."]  # fmt: skip
+    return out
+
+
 def second_by_differences(evaluate, face, uv, h=1e-6):
     """Central differences of the first derivatives `evaluate` returns at `uv +- h`:
     d2/du2, d2/dudv, d2/dv2, for checking the second derivatives it returns."""
@@ -155,6 +220,8 @@ def main():
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
         print(lines[-1], flush=True)
         store[f"{k}_face"], store[f"{k}_uv"], store[f"{k}_osd"] = face, uv, want
+    lines += chaikin_refinement(binary)
+    print("\n".join(lines[-8:]))
     store["names"] = np.array([c[0] for c in CASES])
     np.savez_compressed(DATA, **store)
     RESULTS.write_text("\n".join(lines) + "\n")
