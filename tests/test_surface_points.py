@@ -120,6 +120,8 @@ CASES = [
     ("Loop: crease, dart, corner tag, semi-sharp",
      jss.Mesh(*TRIANGLE_GRID, creases=[[6, 7], [7, 8], [13, 14]], corners=[15],
               crease_sharpness=[np.inf, 1.5, np.inf]), LOOP),
+    ("Loop: crease turning", jss.Mesh(*TRIANGLE_GRID, creases=[[13, 14], [14, 20]]), LOOP),
+    ("Loop: concave boundary corner", jss.Mesh(*triangulated(*l_shape())), LOOP),
 ]  # fmt: skip
 
 

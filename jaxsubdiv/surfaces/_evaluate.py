@@ -5,10 +5,12 @@ B-spline patch of the 16 vertices around it; sharp sides (boundary or crease edg
 corners are the same patch with phantom points mirrored across the side (the tensor
 product of the cubic B-spline end rule), which reproduces the crease and corner rules
 exactly. Loop's limit over a triangle whose corners are smooth, interior and of
-valence 6 is the quartic three-direction box spline of its 12 surrounding vertices.
-Everywhere else the face is refined: the sub-face containing the point is regular after
-a few levels unless the point is an irregular vertex itself (an extraordinary vertex, a
-dart, a crease end; for Loop, also boundary and crease vertices). Refinement is local: a
+valence 6 is the quartic three-direction box spline of its 12 surrounding vertices, and
+over a triangle with one sharp side between regular boundary or crease vertices the same
+patch with three parallelogram phantoms. Everywhere else the face is refined: the
+sub-face containing the point is regular after a few levels unless the point is an
+irregular vertex itself (an extraordinary vertex, a dart, a crease end, a corner).
+Refinement is local: a
 sub-face's limit depends only on its 1-ring (the faces sharing a vertex with it), so
 each level refines the disjoint union of the 1-rings of the sub-faces still holding
 points, one vectorized numpy level for all of them. This is the evaluation OpenSubdiv's
@@ -221,31 +223,53 @@ def _linear_weights(uv: np.ndarray, jac: np.ndarray) -> np.ndarray:
 
 
 def _triangle_patches(topo: Topology, irregular: np.ndarray, faces: np.ndarray):
-    """Which of `faces` are regular Loop patches (three smooth interior corners of
-    valence 6 with no sharp edge), and their 12 control vertices: the corners, the
-    vertex across each side, then two more around each corner (counter-clockwise)."""
+    """Which of `faces` are regular Loop patches, their 12 control vertices (the
+    corners `c_j`, the vertex `o_j` across each side `j` (from `c_j` to `c_j+1`), then
+    two more around each corner, `x2_j`, `x3_j`, counter-clockwise) and the sharp side
+    of each (-1: none).
+
+    Regular: three smooth interior corners of valence 6 with no sharp edge (the quartic
+    box spline); or one sharp side (boundary or crease) whose two corners are crease
+    vertices with three triangles on this side, the third corner as before. The three
+    points beyond a sharp side are phantoms, parallelograms of points on this side
+    (`o_j = c_j + c_j+1 - c_j+2`, ...): the interior rules on them give the boundary
+    curve's rules (the vertex's 1/8, 3/4, 1/8 and the midpoint), as in OpenSubdiv's
+    boundary patches."""
     h = topo.offsets[faces][:, None] + np.arange(3)
     corner = topo.origin[h]
     V = topo.num_vertices
-    nsharp = np.bincount(topo.edges[topo.sharp_edge].reshape(-1), minlength=V)
-    ok_corner = (
-        (topo.vertex_type[corner] == SMOOTH) & ~topo.boundary_vertex[corner]
-        & (topo.valence[corner] == 6) & (nsharp[corner] == 0) & ~irregular[corner]
-    )  # fmt: skip
-    ok = np.all(ok_corner, axis=1)
-    h = np.where(ok[:, None], h, topo.offsets[faces][:, None])  # any valid half-edge
+    sharp = topo.sharp_edge
+    nsharp = np.bincount(topo.edges[sharp].reshape(-1), minlength=V)
+    vtype = topo.vertex_type[corner]
+    side = sharp[topo.edge[h]]  # side j runs from corner j to corner j + 1
+    before = np.roll(side, 1, axis=1)
 
     def turn(g):  # the next outgoing half-edge counter-clockwise around its origin
-        return np.maximum(topo.twin[topo.prev[g]], 0)
+        return topo.twin[topo.prev[g]]
 
-    def head(g):
-        return topo.origin[topo.next[g]]
+    def back(g):  # the next one clockwise
+        return topo.next[np.maximum(topo.twin[g], 0)]
+
+    ccw = turn(turn(h).clip(0)).clip(0)  # c_j -> o_j+2, past side j - 1
+    cw1 = back(h)  # c_j -> o_j, past side j
+    cw2 = back(cw1)  # c_j -> x3_j
+    smooth = (
+        (vtype == SMOOTH) & ~topo.boundary_vertex[corner] & (topo.valence[corner] == 6)
+        & (nsharp[corner] == 0)
+    )  # fmt: skip
+    # One sharp side at a corner: the sector on this side must be three triangles.
+    closes_ccw = ~sharp[topo.edge[ccw]] & sharp[topo.edge[topo.prev[ccw]]]
+    closes_cw = ~sharp[topo.edge[cw1]] & sharp[topo.edge[cw2]]
+    crease = (vtype == CREASE) & np.where(side, ~before & closes_ccw, ~side & closes_cw)
+    ok_corner = np.where(side | before, crease & ~(side & before), smooth) & ~irregular[corner]
+    ok = np.all(ok_corner, axis=1) & (side.sum(axis=1) <= 1)
 
     across = topo.origin[topo.prev[np.maximum(topo.twin[h], 0)]]
-    second = turn(turn(turn(h)))  # past the other corner and the vertex across it
-    grid = np.concatenate([corner, across, head(second), head(turn(second))], axis=1)
-    grid = grid[:, [0, 1, 2, 3, 4, 5, 6, 9, 7, 10, 8, 11]]
-    return ok, np.where(ok[:, None], grid, 0), None
+    x2 = topo.origin[topo.prev[ccw]]
+    x3 = topo.origin[topo.next[cw2]]
+    grid = np.concatenate([corner, across, np.stack([x2, x3], 2).reshape(-1, 6)], axis=1)
+    sharp_side = np.where(ok & side.any(axis=1), np.argmax(side, axis=1), -1)
+    return ok, np.where(ok[:, None], grid, 0), sharp_side
 
 
 _LOOP_LATTICE = np.array([(i / 4, j / 4) for i in range(5) for j in range(5 - i)])
@@ -290,12 +314,26 @@ def _box_spline_coefficients() -> np.ndarray:
     return np.linalg.solve(_monomials(_LOOP_LATTICE), values[:, grid[0]])
 
 
-def _box_spline_weights(_, uv: np.ndarray, jac: np.ndarray) -> np.ndarray:
-    """`(n, 6, 12)` weights of a regular Loop patch's control points."""
+def _box_spline_weights(sharp_side: np.ndarray, uv: np.ndarray, jac: np.ndarray) -> np.ndarray:
+    """`(n, 6, 12)` weights of a regular Loop patch's control points; on a patch with a
+    sharp side, the weights of its three phantoms moved onto the points they are made
+    of (see `_triangle_patches`)."""
     coef = _box_spline_coefficients()
     orders = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]
-    local = np.stack([_monomials(uv, a, b) @ coef for a, b in orders], axis=1)
-    return _to_face_frame(local, jac)
+    w = np.stack([_monomials(uv, a, b) @ coef for a, b in orders], axis=1)
+    c, o = (lambda j: j % 3), (lambda j: 3 + j % 3)
+    x2, x3 = (lambda j: 6 + 2 * (j % 3)), (lambda j: 7 + 2 * (j % 3))
+    for i in range(3):
+        rows = sharp_side == i
+        for phantom, plus, minus in ((o(i), (c(i), c(i + 1)), c(i + 2)),
+                                     (x3(i), (x2(i), c(i)), o(i + 2)),
+                                     (x2(i + 1), (c(i + 1), x3(i + 1)), o(i + 1))):  # fmt: skip
+            moved = w[rows, :, phantom]
+            for k in plus:
+                w[rows, :, k] += moved
+            w[rows, :, minus] -= moved
+            w[rows, :, phantom] = 0
+    return _to_face_frame(w, jac)
 
 
 # Loop's children of triangle [p0, p1, p2] (`Loop.level`): 4f + k for the triangle at
@@ -512,10 +550,11 @@ class SurfacePoints(eqx.Module):
     corners are smooth vertices of valence 4, or boundary, crease or corner vertices
     that the bicubic B-spline patch with mirrored phantom points reproduces; for Loop,
     a triangle whose corners are smooth interior vertices of valence 6 (the quartic box
-    spline; Stam 1998). Other faces are refined locally towards the point, up to
-    `max_depth` levels. A point still next to an irregular vertex then (an
-    extraordinary vertex, a dart, a crease end, a boundary vertex of another valence;
-    for Loop also any boundary or crease vertex) lies within $2^{-\text{max\_depth}}$
+    spline; Stam 1998), or with one sharp side whose corners are boundary or crease
+    vertices with three triangles on this side (phantom points again). Other faces are
+    refined locally towards the point, up to `max_depth` levels. A point still next to
+    an irregular vertex then (an extraordinary vertex, a dart, a crease end, a corner, a
+    boundary vertex of another valence) lies within $2^{-\text{max\_depth}}$
     of the face's size from it, and is evaluated on the bilinear (Loop: linear) patch
     of the limit positions of the last sub-face's corners (`exact` is False): its
     position is exact at the vertex itself and within about $4^{-\text{max\_depth}}$
