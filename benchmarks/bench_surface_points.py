@@ -158,10 +158,22 @@ def normals_at_extraordinary_vertices(mesh, scheme, depths):
         secant /= np.linalg.norm(secant, axis=1, keepdims=True)
         exact = np.asarray(points.normals(mesh.vertices))
         row = {"max_depth": depth}
-        for name, normal in (("exact_tangents", exact), ("secant", secant)):
+        for name, normal in (("normals", exact), ("secant", secant)):
             angle = np.degrees(np.arccos(np.clip(np.sum(normal * want, 1), -1, 1)))
             for v in np.unique(valence[vertex]):
                 row[f"{name}_valence_{v}"] = float(angle[valence[vertex] == v].max())
+        out.append(row)
+    # The normals of exact patches near the vertex, along the face's diagonal.
+    at = np.asarray(jss.SurfacePoints(mesh, scheme, np.array(face), np.array(uv)).normals(mesh.vertices))
+    towards = corner_uv.mean(axis=0) - np.array(uv)
+    for distance in (2.0**-8, 2.0**-12, 2.0**-14):
+        near = jss.SurfacePoints(mesh, scheme, np.array(face), np.array(uv) + distance * towards)
+        normal = np.asarray(near.normals(mesh.vertices))
+        angle = np.degrees(np.arccos(np.clip(np.sum(normal * at, 1), -1, 1)))
+        row = {"max_depth": f"nearby, 2^{int(np.log2(distance))}, exact: {bool(np.all(near.exact))}"}
+        for v in np.unique(valence[vertex]):
+            row[f"normals_valence_{v}"] = float(angle[valence[vertex] == v].max())
+            row[f"secant_valence_{v}"] = float("nan")
         out.append(row)
     return out, {int(v): int((valence[vertex] == v).sum()) for v in np.unique(valence[vertex])}
 
@@ -196,8 +208,11 @@ def markdown(results) -> str:
         f"arrays under one `jax.jit`: **{results['compilations']}**.",
         "",
         "Normals at the corners of faces at interior extraordinary vertices, largest angle "
-        "to `Limit.normals`, degrees: with the vertex's exact limit tangents (what "
-        "`normals` returns there) and with the secant over the last sub-face.",
+        "to `Limit.normals`, degrees, by `max_depth`: what `normals` returns there (the "
+        "vertex's exact limit tangents; at valence 2, which has no tangent plane, the "
+        "secant) and the secant over the last sub-face. Rows *nearby*: the largest angle "
+        "between that normal and the normals of points at 2^-8, 2^-12, 2^-14 of the "
+        "face's size from the vertex along the face's diagonal (all on exact patches).",
     ]
     for scheme, rows in results["normals"].items():
         keys = [k for k in rows[0] if k != "max_depth"]
@@ -207,7 +222,8 @@ def markdown(results) -> str:
         lines.append("|---:|" + "---:|" * len(keys))
         for row in rows:
             lines.append(f"| {row['max_depth']} | "
-                         + " | ".join(f"{row[k]:.1e}" for k in keys) + " |")  # fmt: skip
+                         + " | ".join("-" if row[k] != row[k] else f"{row[k]:.1e}"
+                                      for k in keys) + " |")  # fmt: skip
     return "\n".join(lines) + "\n"
 
 

@@ -486,7 +486,9 @@ def _stencils(mesh: Mesh, scheme, face: np.ndarray, uv: np.ndarray, subface: np.
             at = dataclasses.replace(current, weights=at_corners)
             blocks.append(_rows(w, inverse.reshape(-1, K), at, queries, N, V0))
             # Normals: the exact limit tangents where the vertex (corner 0 of every
-            # sub-face below level 1) is smooth, the secants elsewhere.
+            # sub-face below level 1) is smooth, the secants elsewhere, and at interior
+            # vertices of valence 2, which have no tangent plane (the normals along
+            # different rays tend to different limits).
             M = len(queries)
             secant = _rows(w, inverse.reshape(-1, K), at, np.arange(M), M, V0)
             secant = secant.take_rows(np.arange(M, 3 * M))
@@ -495,11 +497,17 @@ def _stencils(mesh: Mesh, scheme, face: np.ndarray, uv: np.ndarray, subface: np.
                                      limit.tangent_v.take_rows(vertex)])  # fmt: skip
             if current.weights is not None:
                 tangents = tangents @ current.weights
-            use = np.tile(limit.smooth[vertex], 2)
+            use = np.tile(limit.smooth[vertex] & (topo.valence[vertex] > 2), 2)
             a, b = ~use[secant.rows], use[tangents.rows]
             cap = Sparse.build(*(np.concatenate([x[a], y[b]]) for x, y in (
                 (secant.rows, tangents.rows), (secant.cols, tangents.cols),
                 (secant.weights, tangents.weights))), (2 * M, V0))  # fmt: skip
+            # Only their directions matter: rows scaled to a largest weight of 1, so
+            # that tangents of size 0.4^16 do not underflow in float32 products.
+            largest = np.zeros(2 * M)
+            np.maximum.at(largest, cap.rows, np.abs(cap.weights))
+            cap = Sparse(cap.rows, cap.cols, cap.weights / np.where(largest > 0, largest, 1)[cap.rows],
+                         cap.shape)  # fmt: skip
             capped = queries
             depth[queries] = level
             break
@@ -511,13 +519,16 @@ def _stencils(mesh: Mesh, scheme, face: np.ndarray, uv: np.ndarray, subface: np.
         sub = np.full(len(queries), -1, np.int64)
         refined = _refine(scheme, current, topo, V0)
         targets, which = np.unique(children, return_inverse=True)
+        rings, index = _one_rings(refined, targets)
         try:
-            current, index = _one_rings(refined, targets)
-            topo = current.topology(scheme)
-            where = index[which.reshape(-1)]
-        except ValueError:  # a ring that is not a disk (tiny meshes): keep them all
+            topo = rings.topology(scheme)
+            current, where = rings, index[which.reshape(-1)]
+        except ValueError:
+            # Two 1-rings that are not disks (fans meeting at an outer vertex; not
+            # seen on any mesh tried): go on with the whole refined mesh this level.
             current, where = refined, children
             topo = current.topology(scheme)
+            _check_surface_memory(topo, scheme, 1, budget, who="SurfacePoints")
     blocks.append(Sparse.build([], [], [], (_KINDS * N, V0)))
     table = Sparse.build(*(np.concatenate(a) for a in zip(*(
         (b.rows, b.cols, b.weights) for b in blocks))), (_KINDS * N, V0))  # fmt: skip
@@ -712,26 +723,44 @@ def _checked_points(mesh: Mesh, faces, uv, subfaces, patch_size: int):
     """Face indices, coordinates and sub-faces as numpy arrays, or a `ValueError`
     naming the argument and the fix."""
     face = np.asarray(faces)
-    if face.ndim != 1 or not (np.issubdtype(face.dtype, np.integer) or face.size == 0):
+    if face.size == 0:
+        face = face.reshape(0).astype(np.int64)
+    integral = np.issubdtype(face.dtype, np.integer) or (
+        np.issubdtype(face.dtype, np.floating) and np.all(np.isfinite(face))
+        and np.all(face == np.round(face))
+    )  # fmt: skip
+    if face.ndim != 1 or not integral:
         raise ValueError(f"`faces` must be a 1-d array of face indices, got shape {face.shape} "
                          f"of {face.dtype}.")  # fmt: skip
-    face = face.astype(np.int64)
     F = mesh.num_faces
-    if len(face) and (face.min() < 0 or face.max() >= F):
-        bad = int(face[(face < 0) | (face >= F)][0])
+    out = (face < 0) | (face >= F)  # before any cast: uint64 and float indices too
+    if np.any(out):
+        bad = face[out][0].item()
         raise ValueError(f"`faces` holds {bad}, but the mesh has {F} faces (0 to {F - 1}).")
-    uv = np.asarray(uv, np.float64)
+    face = face.astype(np.int64)
+    try:
+        uv = np.asarray(uv)
+        if np.iscomplexobj(uv):
+            raise TypeError
+        uv = uv.astype(np.float64)
+    except (TypeError, ValueError):
+        raise ValueError("`uv` must be real numbers, an (N, 2) array of (u, v) per face "
+                         "index.") from None  # fmt: skip
+    if uv.size == 0 and len(face) == 0:
+        uv = uv.reshape(0, 2)
     if uv.shape != (len(face), 2):
         raise ValueError(f"`uv` must have shape ({len(face)}, 2), one (u, v) per face index; "
                          f"got {uv.shape}.")  # fmt: skip
-    inside = np.all(np.isfinite(uv) & (uv >= 0) & (uv <= 1), axis=1)
+    slack = 1e-12  # rounding errors just outside go back onto the side
+    inside = np.all(np.isfinite(uv) & (uv >= -slack) & (uv <= 1 + slack), axis=1)
     if patch_size == 3:
-        inside &= uv.sum(axis=1) <= 1 + 1e-12
+        inside &= uv.sum(axis=1) <= 1 + slack
     if not np.all(inside):
         i = int(np.argmax(~inside))
         where = "the triangle u, v >= 0, u + v <= 1" if patch_size == 3 else "[0, 1]^2"
         raise ValueError(f"`uv` must lie in {where}; point {i} is {uv[i].tolist()}.")
-    if patch_size == 3:  # a point a rounding error outside goes back onto the side
+    uv = np.clip(uv, 0, 1)
+    if patch_size == 3:
         uv = uv / np.maximum(uv.sum(axis=1, keepdims=True), 1)
     sizes = mesh.face_sizes()[face]
     if subfaces is None:

@@ -327,10 +327,11 @@ def _semi_sharp_limit(mesh: Mesh, scheme: AbstractSurfaceScheme, budget: float):
 
 
 def _safe_normalize(x: Float[Array, "... 3"]) -> Float[Array, "... 3"]:
-    """`x / |x|`, and zero (with zero gradient, not NaN) where `x` is zero."""
+    """`x / |x|`, and zero (with zero gradient, not NaN) where `x` is zero; NaN stays
+    NaN (a NaN vertex must not give a clean normal)."""
     sq = jnp.sum(x * x, axis=-1, keepdims=True)
-    ok = sq > 0
-    return jnp.where(ok, x / jnp.sqrt(jnp.where(ok, sq, 1.0)), 0.0)
+    zero = sq == 0
+    return jnp.where(zero, 0.0, x / jnp.sqrt(jnp.where(zero, 1.0, sq)))
 
 
 class Limit(eqx.Module):
