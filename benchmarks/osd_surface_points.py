@@ -52,27 +52,32 @@ def compile_driver() -> pathlib.Path:
     return binary
 
 
-def scheme_options(scheme):
+def run_driver(binary, mesh, scheme, level, points=()) -> str:
+    """The driver's output for `mesh` under `scheme` (its options by OpenSubdiv's
+    names; infinite sharpness as 10): `level` >= 0 evaluates Bfr at `points` (lines
+    "face u v"), a negative one refines `-level` levels uniformly."""
     name = "loop" if isinstance(scheme, jss.Loop) else "catmark"
-    return name, scheme.boundary_interpolation, scheme.crease_method
-
-
-def run_osd(binary, mesh, scheme, face, uv, level=10):
-    name, boundary, creasing = scheme_options(scheme)
     rows = [r[r >= 0] for r in mesh.faces]
     sharp = lambda s: 10.0 if not np.isfinite(s) else float(s)
-    lines = [f"{name} {boundary} {creasing} {level}",
-             f"{mesh.num_vertices} {len(rows)} {len(mesh.creases)} {len(mesh.corners)} {len(face)}"]  # fmt: skip
+    lines = [f"{name} {scheme.boundary_interpolation} {scheme.crease_method} {level}",
+             f"{mesh.num_vertices} {len(rows)} {len(mesh.creases)} {len(mesh.corners)} "
+             f"{len(points)}"]  # fmt: skip
     lines += [" ".join(f"{x:.17g}" for x in v) for v in np.asarray(mesh.vertices)]
     lines += [f"{len(r)} " + " ".join(map(str, r)) for r in rows]
     lines += [f"{a} {b} {sharp(s)}" for (a, b), s in zip(mesh.creases, mesh.crease_sharpness)]
     lines += [f"{v} {sharp(s)}" for v, s in zip(mesh.corners, mesh.corner_sharpness)]
+    lines += list(points)
+    return subprocess.run([str(binary)], input="\n".join(lines) + "\n", capture_output=True,
+                          text=True, check=True).stdout  # fmt: skip
+
+
+def run_osd(binary, mesh, scheme, face, uv, level=10):
+    """Bfr's position and derivatives `(N, 6, 3)` at the points (NaN: no surface)."""
     order = np.argsort(face, kind="stable")  # one surface per face
-    lines += [f"{face[i]} {uv[i, 0]:.17g} {uv[i, 1]:.17g}" for i in order]
-    done = subprocess.run([str(binary)], input="\n".join(lines) + "\n", capture_output=True,
-                          text=True, check=True)  # fmt: skip
+    out = run_driver(binary, mesh, scheme, level,
+                     [f"{face[i]} {uv[i, 0]:.17g} {uv[i, 1]:.17g}" for i in order])  # fmt: skip
     values = np.full((len(face), 18), np.nan)
-    for i, line in zip(order, done.stdout.splitlines()):
+    for i, line in zip(order, out.splitlines()):
         if line != "invalid":
             values[i] = np.array(line.split(), float)
     return values.reshape(-1, 6, 3)
@@ -100,17 +105,7 @@ def ours(mesh, scheme, face, uv):
 
 def osd_refine(binary, mesh, scheme, levels):
     """The vertices of `levels` uniform levels of OpenSubdiv (Far::PrimvarRefiner)."""
-    name, boundary, creasing = scheme_options(scheme)
-    rows = [r[r >= 0] for r in mesh.faces]
-    sharp = lambda s: 10.0 if not np.isfinite(s) else float(s)
-    lines = [f"{name} {boundary} {creasing} {-levels}",
-             f"{mesh.num_vertices} {len(rows)} {len(mesh.creases)} {len(mesh.corners)} 0"]  # fmt: skip
-    lines += [" ".join(f"{x:.17g}" for x in v) for v in np.asarray(mesh.vertices)]
-    lines += [f"{len(r)} " + " ".join(map(str, r)) for r in rows]
-    lines += [f"{a} {b} {sharp(s)}" for (a, b), s in zip(mesh.creases, mesh.crease_sharpness)]
-    lines += [f"{v} {sharp(s)}" for v, s in zip(mesh.corners, mesh.corner_sharpness)]
-    out = subprocess.run([str(binary)], input="\n".join(lines) + "\n", capture_output=True,
-                         text=True, check=True).stdout  # fmt: skip
+    out = run_driver(binary, mesh, scheme, -levels)
     return np.array([line.split() for line in out.splitlines()], float)
 
 
