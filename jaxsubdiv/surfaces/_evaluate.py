@@ -57,7 +57,7 @@ _QUADRANT_SHIFT = np.array([[0, 0], [0, 2], [2, 2], [2, 0]], np.float64)
 
 #: Default number of levels a face is refined towards a point before the point, then
 #: within 2^-16 of the face's size of an irregular vertex, is evaluated by the bilinear
-#: interpolation of the limit positions of the last sub-face's corners.
+#: (Loop: linear) interpolation of the limit positions of the last sub-face's corners.
 DEFAULT_MAX_DEPTH = 16
 
 
@@ -439,7 +439,8 @@ def _one_rings(refined: _Patches, targets: np.ndarray) -> tuple[_Patches, np.nda
     return rings, target_index
 
 
-def _refine(scheme, p: _Patches, topo: Topology, num_base: int) -> _Patches:
+def _refine(scheme, p: _Patches, topo: Topology) -> _Patches:
+    """One level of `p` (whose topology is `topo`), its vertices still on the base's."""
     step = _level(scheme, p.faces, p.count, p.creases, p.corners, p.crease_sharpness,
                   p.corner_sharpness, topo=topo)  # fmt: skip
     weights = step.stencil if p.weights is None else step.stencil @ p.weights
@@ -517,7 +518,7 @@ def _stencils(mesh: Mesh, scheme, face: np.ndarray, uv: np.ndarray, subface: np.
         local = np.einsum("nab,nb->na", q_map, local) + q_shift
         jac = np.einsum("nab,nbc->nac", q_map, jac)
         sub = np.full(len(queries), -1, np.int64)
-        refined = _refine(scheme, current, topo, V0)
+        refined = _refine(scheme, current, topo)
         targets, which = np.unique(children, return_inverse=True)
         rings, index = _one_rings(refined, targets)
         try:
