@@ -14,6 +14,8 @@ Suzanne triangulated (968 triangles):
 - `depth`: how many levels the points needed (0: a regular face);
 - `compilations`: XLA compilations while evaluating 5 different vertex arrays under
   one `jax.jit` (JAX's monitoring events);
+- `semi_sharp_limits`: `Limit` on a cube with one semi-sharp edge, refining the
+  tagged vertices' 1-rings against refining the whole mesh, time and peak memory;
 - `normals`: at the corners of faces at interior extraordinary vertices (Suzanne's
   quads for Catmull-Clark, triangulated Suzanne for Loop), the angle to
   `Limit.normals` for `max_depth` 10 to 24, with the exact tangents `SurfacePoints`
@@ -178,6 +180,35 @@ def normals_at_extraordinary_vertices(mesh, scheme, depths):
     return out, {int(v): int((valence[vertex] == v).sum()) for v in np.unique(valence[vertex])}
 
 
+def semi_sharp_limits():
+    """`Limit` on a cube with one edge of each sharpness: wall time and peak host memory
+    (tracemalloc) of the local refinement of the tagged vertices' 1-rings against
+    refining the whole mesh (where it fits in 2 GiB)."""
+    import tracemalloc
+
+    from jaxsubdiv.surfaces._refine import _semi_sharp_limit
+
+    v = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    f = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
+    rows = []
+    _semi_sharp_limit(jss.Mesh(v, f, creases=[[0, 2]], crease_sharpness=[1.5]), CC, 2**31)  # imports
+    for sharpness in (2.5, 4.5, 6.5, 9.99):
+        mesh = jss.Mesh(v, f, creases=[[0, 2]], crease_sharpness=[sharpness])
+        row = {"sharpness": sharpness}
+        for name, local in (("local", True), ("whole", False)):
+            tracemalloc.start()
+            start = time.perf_counter()
+            try:
+                _semi_sharp_limit(mesh, CC, 2**31, local=local)
+                row[f"{name}_s"] = time.perf_counter() - start
+                row[f"{name}_peak_mb"] = tracemalloc.get_traced_memory()[1] / 1e6
+            except ValueError:
+                row[f"{name}_s"], row[f"{name}_peak_mb"] = None, "above 2 GiB"
+            tracemalloc.stop()
+        rows.append(row)
+    return rows
+
+
 def markdown(results) -> str:
     lines = [
         "# SurfacePoints: the Catmull-Clark and Loop limit at any (face, u, v)",
@@ -214,6 +245,16 @@ def markdown(results) -> str:
         "between that normal and the normals of points at 2^-8, 2^-12, 2^-14 of the "
         "face's size from the vertex along the face's diagonal (all on exact patches).",
     ]
+    lines += ["", "`Limit` on a cube with one semi-sharp edge (Catmull-Clark): the local "
+              "refinement of the tagged vertices' 1-rings against the whole mesh refined "
+              "until the sharpness decays; wall time and peak host memory (tracemalloc).", "",
+              "| sharpness | local s | local peak MB | whole s | whole peak MB |",
+              "|---:|---:|---:|---:|---:|"]  # fmt: skip
+    for r in results["semi_sharp_limits"]:
+        cell = lambda x, f: "-" if x is None else (x if isinstance(x, str) else f.format(x))
+        lines.append(f"| {r['sharpness']} | {cell(r['local_s'], '{:.3f}')} | "
+                     f"{cell(r['local_peak_mb'], '{:.2f}')} | {cell(r['whole_s'], '{:.3f}')} | "
+                     f"{cell(r['whole_peak_mb'], '{:.1f}')} |")  # fmt: skip
     for scheme, rows in results["normals"].items():
         keys = [k for k in rows[0] if k != "max_depth"]
         lines += ["", f"{scheme}, corners at extraordinary vertices by valence: "
@@ -254,6 +295,7 @@ def main():
                                ("Loop, Suzanne triangulated", triangulated, jss.Loop())):  # fmt: skip
         rows, counts = normals_at_extraordinary_vertices(mesh, scheme, depths)
         results["normals"][name], results["normal_corners"][name] = rows, counts
+    results["semi_sharp_limits"] = semi_sharp_limits()
     results["load_end"] = load()
     output.write_text(json.dumps(results, indent=1))
     output.with_suffix(".md").write_text(markdown(results))

@@ -476,7 +476,7 @@ def test_rings_that_are_not_disks_fall_back_to_the_whole_refined_mesh(monkeypatc
     want = np.asarray(jss.SurfacePoints(mesh, CC, face, uv).positions(mesh.vertices))
     real = _evaluate._one_rings
 
-    class NotADisk(_evaluate._Patches):
+    class NotADisk(_evaluate.Patches):
         def topology(self, scheme):
             raise ValueError("not a disk")
 

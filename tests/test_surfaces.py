@@ -869,16 +869,67 @@ def test_chaikin_and_uniform_points_by_hand():
 
 
 def test_limit_of_semi_sharp_tags_within_budget():
-    """The limit is taken after the sharpness decays, by refining the whole mesh: a
-    budget error in `Limit`'s terms when that is too much, and tags that change nothing
-    (a boundary edge, a corner that is one anyway) cost no refinement."""
+    """The limit is taken after the sharpness decays. Refined locally (the 1-rings of
+    the vertices on semi-sharp tags), a cube edge of sharpness 9.99 costs kilobytes
+    (the whole mesh refined 10 levels would need about 10 GB, a budget error in
+    `Limit`'s terms), and equals `SurfacePoints` at the vertices; a budget too small
+    for the rings is an error too; tags that change nothing (a boundary edge, a corner
+    that is one anyway) cost no refinement."""
+    from jaxsubdiv.surfaces._refine import _semi_sharp_limit
+
     v, f = cube()
+    mesh = jss.Mesh(v, f, creases=[[0, 1]], crease_sharpness=9.99)
     with pytest.raises(ValueError, match="Limit: the largest semi-sharp tag of this mesh lasts 10 levels"):
-        jss.Limit(jss.Mesh(v, f, creases=[[0, 1]], crease_sharpness=9.99), jss.CatmullClark())
+        _semi_sharp_limit(mesh, jss.CatmullClark(), 2**31, local=False)
+    corners = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    points = jss.SurfacePoints(mesh, jss.CatmullClark(), np.repeat(np.arange(6), 4), np.tile(corners, (6, 1)))
+    np.testing.assert_allclose(jss.limit_positions(mesh, jss.CatmullClark())[f.reshape(-1)],
+                               points.positions(v), rtol=0, atol=1e-14)  # fmt: skip
+    assert_one_clear_error(lambda: jss.Limit(mesh, jss.CatmullClark(), memory_budget=1000),
+                           ValueError, ["Limit", "semi-sharp", "memory_budget=1,000"])  # fmt: skip
     v, f = grid(4, 4)
     idle = jss.Mesh(v, f, creases=[[0, 1]], crease_sharpness=9.99, corners=[0], corner_sharpness=9.5)
     np.testing.assert_array_equal(jss.limit_positions(idle, jss.CatmullClark(), memory_budget=10**6),
                                   jss.limit_positions(jss.Mesh(v, f), jss.CatmullClark()))
+
+
+SEMI_SHARP_LIMITS = [
+    ("Catmull-Clark, uniform, corner tag", lambda: grid(5, 4), jss.CatmullClark(),
+     dict(creases=[[6, 7], [7, 8], [8, 9]], crease_sharpness=[1.5, 3.25, 0.75], corners=[12],
+          corner_sharpness=[2.5])),
+    ("Catmull-Clark, chaikin", lambda: grid(5, 4), jss.CatmullClark(crease_method="chaikin"),
+     dict(creases=[[6, 7], [7, 8], [8, 9]], crease_sharpness=[1.5, 3.25, 0.75])),
+    ("Catmull-Clark, edge only, boundary tag", lambda: grid(5, 4),
+     jss.CatmullClark(boundary_interpolation="edge_only"),
+     dict(creases=[[0, 1], [6, 7]], crease_sharpness=[2.5, 3.5])),
+    ("Loop, corner tag", lambda: grid(5, 4, triangles=True), jss.Loop(),
+     dict(creases=[[7, 8], [8, 9]], crease_sharpness=[2.5, 1.25], corners=[15], corner_sharpness=[3.0])),
+    ("Catmull-Clark, prism (n-gons)", prism, jss.CatmullClark(),
+     dict(creases=[[0, 1], [1, 2]], crease_sharpness=[2.5, 4.0])),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("name, make, scheme, tags", SEMI_SHARP_LIMITS,
+                         ids=[c[0] for c in SEMI_SHARP_LIMITS])  # fmt: skip
+def test_semi_sharp_limit_locally_equals_the_whole_mesh_refined(name, make, scheme, tags):
+    """The local refinement of the rings of the vertices on semi-sharp tags gives the
+    limit positions and normals of refining the whole mesh (the tangent pairs may turn
+    within the plane: a ring's first edge is a numbering choice)."""
+    from jaxsubdiv.surfaces import _refine
+
+    v, f = make()
+    mesh = jss.Mesh(v, f, **tags)
+    data = v + np.random.default_rng(0).normal(size=v.shape) * 0.1
+    local = jss.Limit(mesh, scheme)
+    whole_stencils = _refine._semi_sharp_limit(mesh, scheme, 2**31, local=False)
+    original = _refine._semi_sharp_limit
+    try:
+        _refine._semi_sharp_limit = lambda *args: whole_stencils
+        whole = jss.Limit(mesh, scheme)
+    finally:
+        _refine._semi_sharp_limit = original
+    np.testing.assert_allclose(local.positions(data), whole.positions(data), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(local.normals(data), whole.normals(data), rtol=0, atol=1e-13)
 
 
 def test_chaikin_sharpness_of_the_refined_creases():

@@ -63,6 +63,55 @@ class LimitStencils:
             new_sector[self.corner_sector[corners]],
         )
 
+    def replace(self, vertices: np.ndarray, other: "LimitStencils") -> "LimitStencils":
+        """These stencils with those of `vertices` taken from `other`, whose rows are
+        `vertices` in that order (on the same base vertices)."""
+        V = self.position.shape[0]
+        mine = np.ones(V, bool)
+        mine[vertices] = False
+
+        def rows(a: Sparse, b: Sparse, keep: np.ndarray, b_rows: np.ndarray, count: int):
+            # `a`'s rows `keep` (by row) and `b`'s, renumbered `b_rows[row]`.
+            ka = keep[a.rows]
+            return Sparse.build(np.concatenate([a.rows[ka], b_rows[b.rows]]),
+                                np.concatenate([a.cols[ka], b.cols]),
+                                np.concatenate([a.weights[ka], b.weights]), (count, a.shape[1]))  # fmt: skip
+
+        kept = mine[self.sector_vertex]
+        old = np.flatnonzero(kept)
+        S = len(old) + len(other.sector_vertex)
+        sector_index = np.full(len(self.sector_vertex), -1, np.int64)
+        sector_index[old] = np.arange(len(old))
+        their_sectors = len(old) + np.arange(len(other.sector_vertex))
+        corner_kept = kept[self.corner_sector]
+        T = int(corner_kept.sum()) + len(other.corner_sector)
+        point_kept = np.repeat(corner_kept, 3)
+        point_index = np.full(len(point_kept), -1, np.int64)
+        point_index[point_kept] = np.arange(int(point_kept.sum()))
+        their_points = int(point_kept.sum()) + np.arange(3 * len(other.corner_sector))
+        smooth = self.smooth.copy()
+        smooth[vertices] = other.smooth
+        return LimitStencils(
+            *(rows(a, b, mine, vertices, V) for a, b in ((self.position, other.position),
+              (self.tangent_u, other.tangent_u), (self.tangent_v, other.tangent_v))),  # fmt: skip
+            smooth,
+            *(Sparse.build(np.concatenate([sector_index[a.rows[kept[a.rows]]], their_sectors[b.rows]]),
+                           np.concatenate([a.cols[kept[a.rows]], b.cols]),
+                           np.concatenate([a.weights[kept[a.rows]], b.weights]), (S, a.shape[1]))
+              for a, b in ((self.sector_u, other.sector_u), (self.sector_v, other.sector_v))),  # fmt: skip
+            np.concatenate([self.sector_vertex[old], vertices[other.sector_vertex]]),
+            np.concatenate([self.sector_kind[old], other.sector_kind]),
+            Sparse.build(np.concatenate([point_index[self.corner_points.rows[point_kept[self.corner_points.rows]]],
+                                         their_points[other.corner_points.rows]]),
+                         np.concatenate([self.corner_points.cols[point_kept[self.corner_points.rows]],
+                                         other.corner_points.cols]),
+                         np.concatenate([self.corner_points.weights[point_kept[self.corner_points.rows]],
+                                         other.corner_points.weights]),
+                         (3 * T, self.corner_points.shape[1])),  # fmt: skip
+            np.concatenate([sector_index[self.corner_sector[corner_kept]],
+                            len(old) + other.corner_sector]),
+        )
+
 
 @dataclasses.dataclass(frozen=True)
 class Counts:

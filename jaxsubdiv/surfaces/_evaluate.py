@@ -62,7 +62,7 @@ DEFAULT_MAX_DEPTH = 16
 
 
 @dataclasses.dataclass(frozen=True)
-class _Patches:
+class Patches:
     """A mesh at some level (the whole mesh, or a disjoint union of 1-rings) and its
     vertices as rows of weights on the base vertices (`None`: the base vertices)."""
 
@@ -119,7 +119,7 @@ def _to_face_frame(local: np.ndarray, jac: np.ndarray) -> np.ndarray:
     return out
 
 
-def _irregular_vertices(p: _Patches) -> np.ndarray:
+def _irregular_vertices(p: Patches) -> np.ndarray:
     """Vertices on a semi-sharp edge or with a semi-sharp corner tag: their rules
     blend or change with the level, so no fixed patch describes them."""
     mark = np.zeros(p.count, bool)
@@ -371,7 +371,7 @@ _QUADS = _Family(4, _quad_patches, _bicubic_weights, _bilinear_weights)
 _TRIANGLES = _Family(3, _triangle_patches, _box_spline_weights, _linear_weights)
 
 
-def _rows(weights: np.ndarray, points: np.ndarray, patches: _Patches, queries: np.ndarray,
+def _rows(weights: np.ndarray, points: np.ndarray, patches: Patches, queries: np.ndarray,
           total: int, num_base: int) -> Sparse:  # fmt: skip
     """Stencil rows `kind * total + query` on the base vertices for local `weights`
     `(n, 6, K)` of the patch vertices `points` `(n, K)`."""
@@ -388,28 +388,28 @@ def _rows(weights: np.ndarray, points: np.ndarray, patches: _Patches, queries: n
     return Sparse(kind * total + queries[i], out.cols, out.weights, (_KINDS * total, num_base))
 
 
-def _one_rings(refined: _Patches, targets: np.ndarray) -> tuple[_Patches, np.ndarray]:
-    """The disjoint union of the 1-rings of the faces `targets` (quads) of `refined`,
-    each ring with its own copies of its vertices and the tags at its target's corners
-    (the only ones the target's limit depends on); and each target's index there."""
+def _rings(refined: Patches, corners: np.ndarray) -> tuple[Patches, np.ndarray, np.ndarray]:
+    """The disjoint union of the 1-rings (the faces holding any of a row of `corners`,
+    `(m, k)` vertices of `refined`), each ring with its own copies of its vertices and
+    the tags at its corners (the only ones the limit there depends on). Returns the
+    union, its faces' keys `ring * F + face` and its vertices' `ring * V + vertex`
+    (both sorted: a face's or vertex's index in the union is its key's rank)."""
     faces, V = refined.faces, refined.count
-    F = len(faces)
+    F, width = faces.shape
+    m, k = corners.shape
     flat = faces.reshape(-1)
     order = np.argsort(flat, kind="stable")
     start = np.searchsorted(flat[order], np.arange(V + 1))
-    corners = faces[targets]  # (m, 4)
-    m = len(targets)
     cv = corners.reshape(-1)
     counts = start[cv + 1] - start[cv]
-    K = faces.shape[1]
-    ring = np.repeat(np.repeat(np.arange(m), K), counts)
-    face = order[np.repeat(start[cv], counts) + _ranks(counts)] // faces.shape[1]
+    ring = np.repeat(np.repeat(np.arange(m), k), counts)
+    face = order[np.repeat(start[cv], counts) + _ranks(counts)] // width
     keys = np.unique(ring * F + face)
     ring, face = keys // F, keys % F
     vkeys = ring[:, None] * V + faces[face]
-    used, inverse = np.unique(vkeys, return_inverse=True)
-    new_faces = inverse.reshape(vkeys.shape)
-    target_index = np.searchsorted(keys, np.arange(m) * F + targets)
+    used, inverse = np.unique(vkeys[faces[face] >= 0], return_inverse=True)
+    new_faces = np.full(vkeys.shape, -1, np.int64)
+    new_faces[faces[face] >= 0] = inverse.reshape(-1)
 
     def new_vertex(r, v):
         return np.searchsorted(used, r * V + v)
@@ -420,7 +420,7 @@ def _one_rings(refined: _Patches, targets: np.ndarray) -> tuple[_Patches, np.nda
         eorder = np.argsort(ends, kind="stable")
         estart = np.searchsorted(ends[eorder], np.arange(V + 1))
         ecount = estart[cv + 1] - estart[cv]
-        r = np.repeat(np.repeat(np.arange(m), K), ecount)
+        r = np.repeat(np.repeat(np.arange(m), k), ecount)
         c = eorder[np.repeat(estart[cv], ecount) + _ranks(ecount)] // 2
         key = np.unique(r * len(refined.creases) + c)
         r, c = key // len(refined.creases), key % len(refined.creases)
@@ -431,20 +431,36 @@ def _one_rings(refined: _Patches, targets: np.ndarray) -> tuple[_Patches, np.nda
     if len(refined.corners):
         index = np.full(V, -1)
         index[refined.corners] = np.arange(len(refined.corners))
-        r, k = np.nonzero(index[corners] >= 0)
-        tags = new_vertex(r, corners[r, k])
-        tag_sharpness = refined.corner_sharpness[index[corners[r, k]]]
-    weights = refined.weights.take_rows(used % V)
-    rings = _Patches(new_faces, len(used), creases, tags, crease_sharpness, tag_sharpness, weights)
-    return rings, target_index
+        r, j = np.nonzero(index[corners] >= 0)
+        tags = new_vertex(r, corners[r, j])
+        tag_sharpness = refined.corner_sharpness[index[corners[r, j]]]
+    num_base = refined.count if refined.weights is None else refined.weights.shape[1]
+    weights = refined.rows(used % V, num_base)
+    rings = Patches(new_faces, len(used), creases, tags, crease_sharpness, tag_sharpness, weights)
+    return rings, keys, used
 
 
-def _refine(scheme, p: _Patches, topo: Topology) -> _Patches:
+def _one_rings(refined: Patches, targets: np.ndarray) -> tuple[Patches, np.ndarray]:
+    """The disjoint union of the 1-rings of the faces `targets` of `refined` (see
+    `_rings`), and each target's index there."""
+    rings, keys, _ = _rings(refined, refined.faces[targets])
+    return rings, np.searchsorted(keys, np.arange(len(targets)) * len(refined.faces) + targets)
+
+
+def vertex_rings(refined: Patches, centres: np.ndarray) -> tuple[Patches, np.ndarray]:
+    """The disjoint union of the 1-rings of the vertices `centres` (the faces around
+    each; see `_rings`), and each centre's index there. A vertex's limit stencils
+    depend on its 1-ring only, and its 1-ring after one more level on its 1-ring now."""
+    rings, _, used = _rings(refined, centres[:, None])
+    return rings, np.searchsorted(used, np.arange(len(centres)) * refined.count + centres)
+
+
+def refine_patches(scheme, p: Patches, topo: Topology) -> Patches:
     """One level of `p` (whose topology is `topo`), its vertices still on the base's."""
     step = _level(scheme, p.faces, p.count, p.creases, p.corners, p.crease_sharpness,
                   p.corner_sharpness, topo=topo)  # fmt: skip
     weights = step.stencil if p.weights is None else step.stencil @ p.weights
-    return _Patches(step.faces, step.stencil.shape[0], step.creases, step.corners,
+    return Patches(step.faces, step.stencil.shape[0], step.creases, step.corners,
                     step.crease_sharpness, step.corner_sharpness, weights)  # fmt: skip
 
 
@@ -456,7 +472,7 @@ def _stencils(mesh: Mesh, scheme, face: np.ndarray, uv: np.ndarray, subface: np.
     `patches=False` refines every point to `max_depth` (for `_box_spline_coefficients`)."""
     family = _TRIANGLES if isinstance(scheme, Loop) else _QUADS
     N, V0, K = len(face), mesh.num_vertices, family.corners
-    current = _Patches(mesh.faces, V0, mesh.creases, mesh.corners, mesh.crease_sharpness,
+    current = Patches(mesh.faces, V0, mesh.creases, mesh.corners, mesh.crease_sharpness,
                        mesh.corner_sharpness, None)  # fmt: skip
     topo = current.topology(scheme)
     blocks, exact, depth = [], np.zeros(N, bool), np.zeros(N, np.int64)
@@ -518,7 +534,7 @@ def _stencils(mesh: Mesh, scheme, face: np.ndarray, uv: np.ndarray, subface: np.
         local = np.einsum("nab,nb->na", q_map, local) + q_shift
         jac = np.einsum("nab,nbc->nac", q_map, jac)
         sub = np.full(len(queries), -1, np.int64)
-        refined = _refine(scheme, current, topo)
+        refined = refine_patches(scheme, current, topo)
         targets, which = np.unique(children, return_inverse=True)
         rings, index = _one_rings(refined, targets)
         try:

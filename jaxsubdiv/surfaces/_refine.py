@@ -302,13 +302,64 @@ def _semi_sharp_levels(mesh: Mesh, topo, boundary_corners: bool) -> int:
     return int(np.ceil(finite.max())) if len(finite) else 0
 
 
-def _semi_sharp_limit(mesh: Mesh, scheme: AbstractSurfaceScheme, budget: float):
-    """Limit stencils of a mesh with semi-sharp tags: refine the whole mesh until
-    every finite sharpness has decayed (up to 10 levels), take the limit stencils there
-    and compose them with the refinement (vertex `v` keeps its index through primal
-    levels), as OpenSubdiv evaluates the limit once the sharpness is gone."""
+def _semi_sharp_vertices(mesh: Mesh, topo) -> np.ndarray:
+    """The vertices on a semi-sharp edge or with a semi-sharp corner tag: the others'
+    limit stencils depend only on their 1-ring's topology and rules, which no
+    semi-sharp tag touches at any level."""
+    mark = np.zeros(mesh.num_vertices, bool)
+    finite = np.isfinite(mesh.crease_sharpness)
+    mark[mesh.creases[finite].reshape(-1)] = True
+    mark[mesh.corners[np.isfinite(mesh.corner_sharpness)]] = True
+    return np.flatnonzero(mark)
+
+
+def _semi_sharp_limit(mesh: Mesh, scheme: AbstractSurfaceScheme, budget: float,
+                      local: bool = True):  # fmt: skip
+    """Limit stencils of a mesh with semi-sharp tags, as OpenSubdiv evaluates the limit
+    once the sharpness is gone: the limit stencils after refining until every finite
+    sharpness that matters has decayed (up to 10 levels), composed with the refinement
+    (vertex `v` keeps its index through primal levels).
+
+    `local` (the default): only the vertices on semi-sharp tags need the refinement,
+    and each only its 1-ring (a vertex's limit depends on its 1-ring, and its 1-ring
+    after a level on its 1-ring before), so the disjoint union of those rings is
+    refined, level by level, its size bounded instead of growing 4x per level; the
+    other vertices take the stencils of the base mesh. `local=False` refines the whole
+    mesh (also the fallback where the rings are not disks)."""
     topo = _topology(mesh, scheme)
     levels = _semi_sharp_levels(mesh, topo, scheme.boundary_corners)
+    if local and levels:
+        from ._evaluate import Patches, refine_patches, vertex_rings
+
+        vertices = _semi_sharp_vertices(mesh, topo)
+        current = Patches(mesh.faces, mesh.num_vertices, mesh.creases, mesh.corners,
+                          mesh.crease_sharpness, mesh.corner_sharpness, None)  # fmt: skip
+        centres = vertices
+        try:
+            for _ in range(levels):
+                current, centres = vertex_rings(current, centres)
+                ring_topo = build_topology(current.faces, current.count, current.creases,
+                                           current.corners, scheme.boundary_corners)  # fmt: skip
+                try:
+                    _check_surface_memory(ring_topo, scheme, 1, budget)
+                except ValueError:
+                    raise ValueError(
+                        f"Limit: refining the 1-rings of the {len(vertices):,} vertices on "
+                        f"semi-sharp tags ({ring_topo.num_faces:,} faces) one level is above "
+                        f"memory_budget={budget:,} bytes. Pass a larger `memory_budget`."
+                    ) from None
+                current = refine_patches(scheme, current, ring_topo)
+            current, centres = vertex_rings(current, centres)
+            fine = build_topology(current.faces, current.count, current.creases,
+                                  current.corners, scheme.boundary_corners)  # fmt: skip
+        except ValueError as error:
+            if "memory_budget" in str(error):
+                raise
+            # A ring that is not a disk (fans meeting at an outer vertex): whole mesh.
+        else:
+            near = scheme.limit(fine, current.creases, current.corners)
+            base = scheme.limit(topo, mesh.creases, mesh.corners)
+            return base.replace(vertices, near.compose(centres, current.weights))
     try:
         _check_surface_memory(topo, scheme, levels, budget)
     except ValueError:
@@ -397,10 +448,11 @@ class Limit(eqx.Module):
         - `mesh`: the base [`jaxsubdiv.surfaces.Mesh`][] (only its topology is used).
         - `scheme`: `Loop()` or `CatmullClark()`.
         - `memory_budget`: for meshes with semi-sharp tags, whose limit is taken after
-          refining the whole mesh until the sharpness has decayed (as many levels as
-          the largest sharpness that matters, rounded up; tags on boundary edges and on
-          vertices that are corners anyway do not count): the most memory, in bytes,
-          that refinement may use, checked before it starts. Keyword only.
+          the sharpness has decayed (as many levels as the largest sharpness that
+          matters, rounded up; tags on boundary edges and on vertices that are corners
+          anyway do not count), refining the 1-rings of the vertices on those tags
+          (the whole mesh where a ring is not a disk): the most memory, in bytes, that
+          refinement may use, checked before each level. Keyword only.
         """
         _check(mesh, scheme)
         memory_budget = checked_budget(memory_budget)
