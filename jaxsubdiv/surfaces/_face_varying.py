@@ -18,13 +18,13 @@ from jaxtyping import Array, ArrayLike, Float, Int
 
 from ..validation import DEFAULT_MEMORY_BUDGET, checked_budget, static_int
 from ._base import AbstractSurfaceScheme
+from ._local import _level
 from ._mesh import Mesh, as_faces
 from ._refine import (
     MAX_LEVELS,
     Refiner,
     _check,
     _check_surface_memory,
-    _level,
     apply_tables,
 )
 from ._stencil import StencilTable

@@ -1,6 +1,5 @@
 """Refiners and limit evaluators: topology once on the host, a stencil kernel per call."""
 
-import dataclasses
 import math
 
 import equinox as eqx
@@ -18,9 +17,9 @@ from .._misc import (
 )
 from ._base import APPROXIMATE, CORNER_TANGENTS, AbstractSurfaceScheme, Counts
 from ._catmull_clark import CatmullClark
+from ._local import Patches, _level, refine_patches, vertex_rings
 from ._loop import Loop
 from ._mesh import Mesh
-from ._sharpness import semi_sharp_level
 from ._stencil import Sparse, StencilTable
 from ._topology import build_topology
 
@@ -43,19 +42,6 @@ def _check(mesh, scheme) -> None:
             "semi-sharp rules are defined for `Loop()` and `CatmullClark()`. Use one of "
             "those, or leave the sharpness out (infinitely sharp tags)."
         )
-
-
-def _level(scheme, faces, count, creases, corners, crease_sharpness, corner_sharpness, topo=None):
-    """One level: the scheme's own for infinitely sharp tags, else the semi-sharp
-    blend; returns the `Level` with the refined tags' sharpness filled in."""
-    if topo is None:
-        topo = build_topology(faces, count, creases, corners, scheme.boundary_corners)
-    if np.any(np.isfinite(crease_sharpness)) or np.any(np.isfinite(corner_sharpness)):
-        return semi_sharp_level(scheme, topo, creases, crease_sharpness, corners,
-                                corner_sharpness)  # fmt: skip
-    step = scheme.level(topo, creases, corners)
-    return dataclasses.replace(step, crease_sharpness=np.full(len(step.creases), np.inf),
-                               corner_sharpness=np.full(len(step.corners), np.inf))  # fmt: skip
 
 
 #: The most levels a `Refiner` takes: each level multiplies the half-edges by four, so 30
@@ -329,8 +315,6 @@ def _semi_sharp_limit(mesh: Mesh, scheme: AbstractSurfaceScheme, budget: float,
     topo = _topology(mesh, scheme)
     levels = _semi_sharp_levels(mesh, topo, scheme.boundary_corners)
     if local and levels:
-        from ._evaluate import Patches, refine_patches, vertex_rings
-
         vertices = _semi_sharp_vertices(mesh, topo)
         current = Patches(mesh.faces, mesh.num_vertices, mesh.creases, mesh.corners,
                           mesh.crease_sharpness, mesh.corner_sharpness, None)  # fmt: skip
