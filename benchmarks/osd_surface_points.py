@@ -109,6 +109,30 @@ def osd_refine(binary, mesh, scheme, levels):
     return np.array([line.split() for line in out.splitlines()], float)
 
 
+def refinement_of_cases(binary) -> list[str]:
+    """`Refiner` against OpenSubdiv's uniform refinement on every test mesh: the
+    vertex counts, and the largest distance from an OpenSubdiv vertex to the nearest of
+    ours (a k-d tree), relative to the mesh's size, levels 1 / 2."""
+    from scipy.spatial import cKDTree
+
+    out = ["", "`Refiner` against OpenSubdiv's uniform refinement (`Far::PrimvarRefiner`) on "
+           "the same meshes: refined vertex counts (ours = OpenSubdiv's) and the largest "
+           "distance from an OpenSubdiv vertex to the nearest of ours, relative to the "
+           "mesh's size, levels 1 / 2.", "", "| mesh | counts equal | distance |",
+           "|---|---|---|"]  # fmt: skip
+    for name, mesh, scheme in CASES:
+        size = np.ptp(np.asarray(mesh.vertices), axis=0).max()
+        equal, gaps = True, []
+        for levels in (1, 2):
+            theirs = osd_refine(binary, mesh, scheme, levels)
+            mine = np.asarray(jss.Refiner(mesh, scheme, levels)(mesh.vertices))
+            equal &= len(theirs) == len(mine)
+            gaps.append(cKDTree(mine).query(theirs)[0].max() / size)
+        out.append(f"| {name} | {'yes' if equal else 'no'} | "
+                   + " / ".join(f"{g:.1e}" for g in gaps) + " |")  # fmt: skip
+    return out
+
+
 def chaikin_refinement(binary) -> list[str]:
     """Uniform refinement against OpenSubdiv's, each refined vertex matched to the
     nearest of ours, for semi-sharp creases under both methods; and, where Chaikin
@@ -215,6 +239,7 @@ def main():
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
         print(lines[-1], flush=True)
         store[f"{k}_face"], store[f"{k}_uv"], store[f"{k}_osd"] = face, uv, want
+    lines += refinement_of_cases(binary)
     lines += chaikin_refinement(binary)
     print("\n".join(lines[-8:]))
     store["names"] = np.array([c[0] for c in CASES])
