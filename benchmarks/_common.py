@@ -11,6 +11,7 @@ import platform
 import statistics
 import subprocess
 import sys
+import time
 
 
 RESULTS = pathlib.Path(__file__).parent / "results"
@@ -42,6 +43,19 @@ def header(**extra) -> dict:
 def median_range(values) -> str:
     """`median (min-max)` of seconds, two decimals: how the results tables show runs."""
     return f"{statistics.median(values):.2f} ({min(values):.2f}-{max(values):.2f})"
+
+
+def timed(call, repeats: int):
+    """`(median seconds, last result)` of `repeats` calls, each waited for
+    (`jax.block_until_ready`)."""
+    import jax
+
+    times, out = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        out = jax.block_until_ready(call())
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), out
 
 
 def load() -> list[float]:

@@ -26,7 +26,6 @@ Writes `surface_points.json` and `.md` (or `*_smoke.*` with `--smoke`).
 
 import json
 import pathlib
-import statistics
 import sys
 import time
 
@@ -40,23 +39,13 @@ import numpy as np  # noqa: E402
 
 
 sys.path.insert(0, str(pathlib.Path(__file__).parent))
-from _common import arguments, header, load  # noqa: E402
+from _common import arguments, header, load, timed  # noqa: E402
 
 import jaxsubdiv.surfaces as jss  # noqa: E402
 
 
 SUZANNE = pathlib.Path(__file__).parent.parent / "tests" / "data" / "suzanne.obj"
 CC = jss.CatmullClark()
-
-
-def timed(call, repeats):
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        out = call()
-        jax.block_until_ready(out)
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), out
 
 
 def random_points(mesh, n, seed=0):

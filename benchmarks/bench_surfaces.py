@@ -28,6 +28,7 @@ import argparse
 import importlib.metadata
 import json
 import platform
+import sys
 import time
 from pathlib import Path
 
@@ -40,6 +41,10 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxsubdiv.surfaces as jss  # noqa: E402
+
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _common import timed  # noqa: E402
 
 
 def _version(distribution):
@@ -62,13 +67,7 @@ def torus(m, n, triangles):
 
 
 def median_time(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        out = fn()
-        jax.block_until_ready(out)
-        times.append(time.perf_counter() - start)
-    return float(np.median(times))
+    return float(timed(fn, repeats)[0])
 
 
 def padded(table: jss.StencilTable):
