@@ -40,6 +40,14 @@ def cube():
     return v, np.array(f)
 
 
+def cube_with_valence_two_vertex():
+    """The cube with face [0, 1, 3, 2] split into two quads through a new vertex 8 in
+    that face, which lies on two edges only (Suzanne has such a vertex)."""
+    v, f = cube()
+    faces = [[0, 1, 3, 8], [3, 2, 0, 8], *f[1:].tolist()]
+    return np.concatenate([v, [[-1.2, 0.0, 0.0]]]), faces
+
+
 def icosahedron():
     p = (1 + 5**0.5) / 2
     v = np.array(
@@ -156,6 +164,91 @@ def test_catmull_clark_quads_after_one_level():
 
 
 # ------------------------------------------------ Catmull-Clark = bicubic B-spline
+
+
+def plain_catmull_clark_level(num_vertices, faces, creases=(), corners=(), boundary_corners=True):
+    """One level of Catmull-Clark as a dense (V + E + F, V) matrix, written directly
+    from the rules with Python loops over vertices, edges and faces: face points are
+    centroids, edge points (a + b + F0 + F1) / 4 or midpoints on boundary and tagged
+    edges, vertex points (n - 2)/n v + (sum of edge neighbours + face points) / n^2,
+    3/4 v + (a + b) / 8 on two sharp edges, v at corners (tagged, three or more sharp
+    edges, or a boundary vertex in one face with `boundary_corners`)."""
+    V = num_vertices
+    faces = [[int(x) for x in row if x >= 0] for row in faces]
+    edge_faces = {}
+    for f, row in enumerate(faces):
+        for i, a in enumerate(row):
+            edge_faces.setdefault(tuple(sorted((a, row[(i + 1) % len(row)]))), []).append(f)
+    edges = sorted(edge_faces)
+    face_point = np.zeros((len(faces), V))
+    for f, row in enumerate(faces):
+        face_point[f, row] += 1 / len(row)
+    tagged = {tuple(sorted(map(int, c))) for c in creases}
+    sharp = {e for e in edges if len(edge_faces[e]) == 1 or e in tagged}
+    S = np.zeros((V + len(edges) + len(faces), V))
+    S[V + len(edges):] = face_point
+    for k, (a, b) in enumerate(edges):
+        if (a, b) in sharp:
+            S[V + k, [a, b]] += 1 / 2
+        else:
+            S[V + k, [a, b]] += 1 / 4
+            S[V + k] += face_point[edge_faces[(a, b)]].sum(axis=0) / 4
+    for v in range(V):
+        around = [e for e in edges if v in e]
+        sharp_nb = [e[0] + e[1] - v for e in around if e in sharp]
+        in_faces = [f for f, row in enumerate(faces) if v in row]
+        boundary = any(len(edge_faces[e]) == 1 for e in around)
+        if (v in corners or len(sharp_nb) > 2 or not around
+                or (boundary_corners and boundary and len(in_faces) == 1)):  # fmt: skip
+            S[v, v] = 1
+        elif len(sharp_nb) == 2:
+            S[v, v] += 3 / 4
+            S[v, sharp_nb] += 1 / 8
+        else:
+            n = len(around)
+            S[v, v] += (n - 2) / n
+            for e in around:
+                S[v, e[0] + e[1] - v] += 1 / n**2
+            S[v] += face_point[in_faces].sum(axis=0) / n**2
+    return S
+
+
+def pillow():
+    """Two quads glued along all four edges: every vertex has valence 2 and sees the
+    opposite vertex through both faces (repeated columns in its stencil)."""
+    return np.random.default_rng(3).normal(size=(4, 3)), [[0, 1, 2, 3], [3, 2, 1, 0]]
+
+
+def polygons():
+    """An open mesh of a pentagon, a quad and two triangles, with a hexagon hole."""
+    v = np.random.default_rng(4).normal(size=(9, 3))
+    return v, [[0, 1, 2, 3, 4], [1, 5, 6, 2, -1], [2, 6, 7, -1, -1], [2, 7, 3, -1, -1],
+               [3, 7, 8, -1, -1]]  # fmt: skip
+
+
+PLAIN_CC_CASES = [
+    ("cube", cube, {}), ("cube_tags", cube, dict(creases=[[0, 1], [1, 3]], corners=[6])),
+    ("valence_two", cube_with_valence_two_vertex, {}), ("pillow", pillow, {}),
+    ("prism", prism, dict(creases=[[0, 1]])), ("polygons", polygons, {}),
+    ("polygons_crease", polygons, dict(creases=[[2, 7], [2, 3]])), ("grid", lambda: grid(3, 2), {}),
+    ("fan", hexagon_fan, {}),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("name, make, tags", PLAIN_CC_CASES, ids=[c[0] for c in PLAIN_CC_CASES])
+@pytest.mark.parametrize("boundary", ["edge_and_corner", "edge_only"])
+def test_catmull_clark_level_equals_plain_rules(name, make, tags, boundary):
+    """The level's stencil (built in closed form from half-edges, face points folded
+    in) against the plain rules above, entry by entry, on polygons of 3-5 sides,
+    valence-2 vertices, repeated columns (pillow), tags and both boundary options."""
+    v, f = make()
+    mesh = jss.Mesh(v, f, **tags)
+    table = jss.Refiner(mesh, jss.CatmullClark(boundary_interpolation=boundary), 1).tables[0]
+    want = plain_catmull_clark_level(len(v), mesh.faces, mesh.creases, mesh.corners.tolist(),
+                                     boundary == "edge_and_corner")  # fmt: skip
+    np.testing.assert_allclose(np.asarray(table.dense()), want, rtol=0, atol=1e-15)
+    rows, cols = np.asarray(table.rows), np.asarray(table.cols)
+    assert len(set(zip(rows.tolist(), cols.tolist()))) == len(rows)  # duplicates summed
 
 
 def periodic_bspline_matrix(params, m):
@@ -685,14 +778,6 @@ def test_doo_sabin_crease_on_closed_mesh():
             on = np.unique(fine.creases)
             d = np.linalg.norm(points[on][:, None] - want[None], axis=-1)
             assert d.min(axis=1).max() < 1e-13 and d.min(axis=0).max() < 1e-13
-
-
-def cube_with_valence_two_vertex():
-    """The cube with face [0, 1, 3, 2] split into two quads through a new vertex 8 in
-    that face, which lies on two edges only (Suzanne has such a vertex)."""
-    v, f = cube()
-    faces = [[0, 1, 3, 8], [3, 2, 0, 8], *f[1:].tolist()]
-    return np.concatenate([v, [[-1.2, 0.0, 0.0]]]), faces
 
 
 def assert_closed_oriented_polygons(faces):

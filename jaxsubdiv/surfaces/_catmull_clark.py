@@ -9,7 +9,6 @@ from ._base import (
     Level,
     LimitStencils,
     check_boundary_interpolation,
-    edge_end_rule,
     limit_stencils,
     refined_tags,
     ring_positions,
@@ -17,13 +16,6 @@ from ._base import (
 )
 from ._stencil import Sparse
 from ._topology import SMOOTH, Topology, build_topology
-
-
-def _face_points(topo: Topology) -> Sparse:
-    """`[I; centroids]`: the base vertices followed by one centroid per face."""
-    V, F = topo.num_vertices, topo.num_faces
-    centroid = Sparse.build(topo.face, topo.origin, 1 / topo.sizes[topo.face], (F, V))
-    return Sparse.stack([Sparse.identity(V), centroid])
 
 
 def cc_sector_ring(topo: Topology, half: np.ndarray) -> np.ndarray:
@@ -79,6 +71,26 @@ def cc_dart_matrix(n: int) -> tuple[np.ndarray, np.ndarray]:
     S[n + 1 :] = face[1:]
     perm = np.concatenate([[0], 1 + (-np.arange(n)) % n, n + 1 + (n - np.arange(1, n + 1))])
     return S, perm
+
+
+def _face_rest(topo: Topology, half: np.ndarray, row: np.ndarray, weight: np.ndarray, skip: int,
+               rows: list, cols: list, weights: list):  # fmt: skip
+    """Append, for each half-edge `half[i]`, entries `(row[i], vertex, weight[i])` for
+    the vertices `next^k` of its origin in its face, k = 2, ..., size - skip + 1: all
+    but the origin and the next vertex (`skip=2`), and the previous one (`skip=3`)."""
+    size = topo.sizes[topo.face[half]]
+    current = topo.next[topo.next[half]]
+    for k in range(2, int(size.max(initial=0)) - skip + 2):
+        # Walking the `next` pointers: one gather per step (all-quad meshes take one
+        # or two steps), no per-entry index arithmetic.
+        valid = size - skip + 2 > k
+        if valid.all():
+            valid = slice(None)
+        rows.append(row[valid])
+        cols.append(topo.origin[current[valid]])
+        weights.append(weight[valid])
+        current = topo.next[current]
+    return rows, cols, weights
 
 
 class CatmullClark(AbstractSurfaceScheme):
@@ -147,28 +159,48 @@ class CatmullClark(AbstractSurfaceScheme):
     def level(self, topology: Topology, creases: np.ndarray, corners: np.ndarray) -> Level:
         topo = topology
         V, E, F = topo.num_vertices, topo.num_edges, topo.num_faces
+        # The face points are centroids; they appear in the vertex and edge rules, whose
+        # weights on the vertices are summed here in closed form (fewer entries than
+        # expanding every face point, and no product with a centroid matrix).
+        inv_size = 1 / topo.sizes[topo.face]  # per half-edge: 1 / size of its face
+        # Crease and corner vertices: the curve rules (no face points); the smooth rows
+        # that `vertex_rule` makes too are dropped here and built below.
+        zero = np.zeros(V)
+        rows, cols, weights = vertex_rule(topo, zero, zero, (3 / 4, 1 / 8))
+        keep = [topo.vertex_type[r] != SMOOTH for r in rows]
+        rows, cols, weights = ([a[k] for a, k in zip(x, keep)] for x in (rows, cols, weights))
+        # Smooth vertices: (n - 2)/n v + 1/n^2 (sum of edge neighbours + face points).
+        # Around v, outgoing half-edge h (in face f) leads to the edge neighbour dest(h),
+        # which is also in twin(h)'s face; f's other vertices appear once.
         n = np.maximum(topo.valence.astype(np.float64), 1.0)
-        # Rows refer to [base vertices, face points]: columns V + f are face points.
-        rows, cols, weights = vertex_rule(topo, (n - 2) / n, 1 / n**2, (3 / 4, 1 / 8))
-        smooth = topo.vertex_type[topo.origin] == SMOOTH
-        rows.append(topo.origin[smooth])
-        cols.append(V + topo.face[smooth])
-        weights.append(1 / n[topo.origin[smooth]] ** 2)
-        edge_rows, edge_cols, edge_weights = edge_end_rule(topo, 1 / 4)
-        rows += edge_rows
-        cols += edge_cols
-        weights += edge_weights
-        h = np.flatnonzero(~topo.sharp_edge[topo.edge])
-        rows.append(V + topo.edge[h])
-        cols.append(V + topo.face[h])
-        weights.append(np.full(len(h), 1 / 4))
-        rows.append(V + E + np.arange(F))
-        cols.append(V + np.arange(F))
-        weights.append(np.ones(F))
-        local = Sparse.build(
-            np.concatenate(rows), np.concatenate(cols), np.concatenate(weights), (V + E + F, V + F)
-        )
-        stencil = local @ _face_points(topo)
+        out = np.flatnonzero(topo.vertex_type[topo.origin] == SMOOTH)
+        v = topo.origin[out]
+        scale = 1 / n[v] ** 2
+        centre = np.flatnonzero(topo.vertex_type == SMOOTH)
+        rows.append(centre)
+        cols.append(centre)
+        weights.append(((n - 2) / n)[centre] + np.bincount(v, scale * inv_size[out], V)[centre])
+        rows.append(v)
+        cols.append(topo.origin[topo.next[out]])
+        weights.append(scale * (1 + inv_size[out] + inv_size[topo.twin[out]]))
+        rows, cols, weights = _face_rest(topo, out, v, scale * inv_size[out], 3, rows, cols, weights)
+        # Edge points: sharp edges the midpoint; smooth ones 1/4 (a + b + F0 + F1).
+        sharp = topo.sharp_edge
+        e = np.arange(E)
+        h0 = topo.edge_half
+        h1 = np.where(sharp, h0, topo.twin[h0])
+        end = np.where(sharp, 1 / 2, (1 + inv_size[h0] + inv_size[h1]) / 4)
+        rows += [V + e, V + e]
+        cols += [topo.edges[:, 0], topo.edges[:, 1]]
+        weights += [end, end]
+        for half in (h0[~sharp], h1[~sharp]):
+            rows, cols, weights = _face_rest(topo, half, V + topo.edge[half], inv_size[half] / 4, 2,
+                                             rows, cols, weights)  # fmt: skip
+        # Face points: centroids.
+        rows.append(V + E + topo.face)
+        cols.append(topo.origin)
+        weights.append(inv_size)
+        stencil = Sparse.blocks(rows, cols, weights, (V + E + F, V))
         h = np.arange(topo.num_half_edges)
         faces = np.stack(
             [topo.origin, V + topo.edge, V + E + topo.face, V + topo.edge[topo.prev[h]]], 1
@@ -204,7 +236,7 @@ class CatmullClark(AbstractSurfaceScheme):
         if np.any(topo.sizes != 4):
             first = self.level(topo, creases, corners)
             fine = build_topology(first.faces, first.stencil.shape[0], first.creases,
-                                  first.corners, self.boundary_corners)
+                                  first.corners, self.boundary_corners, validate=False)
             stencils = self.limit(fine, first.creases, first.corners)
             return stencils.compose(np.arange(V), first.stencil)
         n = topo.valence.astype(np.float64)

@@ -274,7 +274,8 @@ class FaceVarying(eqx.Module):
             faces, vertices = refined.faces, refined.stencil.shape[0]
             tags = (refined.creases, refined.crease_sharpness, refined.corners,
                     refined.corner_sharpness)  # fmt: skip
-            topo = build_topology(faces, vertices, tags[0], tags[2], scheme.boundary_corners)
+            topo = build_topology(faces, vertices, tags[0], tags[2], scheme.boundary_corners,
+                                  validate=False)  # a level of a checked mesh
             flat, _ = flatten_faces(channel)
         self.tables = tuple(tables)
         self.linear_interpolation = linear_interpolation

@@ -11,11 +11,14 @@ from ._stencil import Sparse, _ranks
 from ._topology import Topology, build_topology
 
 
-def _level(scheme, faces, count, creases, corners, crease_sharpness, corner_sharpness, topo=None):
+def _level(scheme, faces, count, creases, corners, crease_sharpness, corner_sharpness, topo=None,
+           validate=True):  # fmt: skip
     """One level: the scheme's own for infinitely sharp tags, else the semi-sharp
-    blend; returns the `Level` with the refined tags' sharpness filled in."""
+    blend; returns the `Level` with the refined tags' sharpness filled in. Without
+    `topo`, builds it (`validate=False`: the faces are a level of a checked mesh)."""
     if topo is None:
-        topo = build_topology(faces, count, creases, corners, scheme.boundary_corners)
+        topo = build_topology(faces, count, creases, corners, scheme.boundary_corners,
+                              validate)  # fmt: skip
     if np.any(np.isfinite(crease_sharpness)) or np.any(np.isfinite(corner_sharpness)):
         return semi_sharp_level(scheme, topo, creases, crease_sharpness, corners,
                                 corner_sharpness)  # fmt: skip

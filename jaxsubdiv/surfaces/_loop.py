@@ -151,9 +151,7 @@ class Loop(AbstractSurfaceScheme):
         rows.append(V + topo.edge[h])
         cols.append(topo.origin[topo.prev[h]])  # the vertex opposite the edge
         weights.append(np.full(len(h), 1 / 8))
-        stencil = Sparse.build(
-            np.concatenate(rows), np.concatenate(cols), np.concatenate(weights), (V + E, V)
-        )
+        stencil = Sparse.blocks(rows, cols, weights, (V + E, V))
         # Four triangles per triangle, orientation kept.
         h0 = topo.offsets[:-1]
         h1, h2 = topo.next[h0], topo.prev[h0]

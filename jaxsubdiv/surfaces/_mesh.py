@@ -14,24 +14,39 @@ class StaticArray:
     so it can be a static field.
 
     `jax.jit` and `eqx.filter_jit` hash static fields on every call; the hash is
-    computed once from the bytes and cached. Equality compares contents.
+    computed from the bytes when first asked for and cached (a refined mesh that is
+    never hashed never pays for it). Equality compares contents. The array is copied
+    unless it already is a `StaticArray` of that dtype (then it is shared).
     """
 
     __slots__ = ("array", "_hash")
 
     def __init__(self, array: np.ndarray, dtype=np.int64):
+        if isinstance(array, StaticArray) and array.array.dtype == dtype:
+            self.array, self._hash = array.array, array._hash
+            return
         array = np.array(array, dtype=dtype, copy=True)
         array.setflags(write=False)
         self.array = array
-        self._hash = hash((array.shape, array.tobytes()))
+        self._hash = None
+
+    @staticmethod
+    def owned(array: np.ndarray) -> "StaticArray":
+        """Wrap an array nobody else holds, without a copy (made read-only)."""
+        out = StaticArray.__new__(StaticArray)
+        array.setflags(write=False)
+        out.array, out._hash = array, None
+        return out
 
     def __hash__(self) -> int:
+        if self._hash is None:
+            self._hash = hash((self.array.shape, self.array.dtype.str, self.array.tobytes()))
         return self._hash
 
     def __eq__(self, other) -> bool:
         return (
             isinstance(other, StaticArray)
-            and self._hash == other._hash
+            and hash(self) == hash(other)
             and np.array_equal(self.array, other.array)
         )
 
@@ -40,7 +55,8 @@ class StaticArray:
 
 
 def as_faces(faces) -> np.ndarray:
-    """Faces as a padded `(F, K)` int64 array: a rectangular array, or ragged lists."""
+    """Faces as a padded `(F, K)` int64 array: a rectangular array, or ragged lists
+    (checked); a `StaticArray` is already a checked faces array (refined meshes)."""
     if isinstance(faces, StaticArray):
         return faces.array
     if is_traced(faces):
@@ -211,6 +227,7 @@ class Mesh(eqx.Module):
         vertices = as_float_array(vertices, "vertices")
         if vertices.ndim != 2:
             raise ValueError(f"`vertices` must have shape (V, C), got {vertices.shape}.")
+        checked = faces if isinstance(faces, StaticArray) else None
         faces = as_faces(faces)
         if faces.size and faces.max() >= vertices.shape[0]:
             raise ValueError(
@@ -220,7 +237,7 @@ class Mesh(eqx.Module):
         creases, crease_sharpness = as_pairs(creases, "creases", crease_sharpness, "crease_sharpness")
         corners, corner_sharpness = as_indices(corners, "corners", corner_sharpness, "corner_sharpness")
         self.vertices = vertices
-        self._faces = StaticArray(faces)
+        self._faces = StaticArray(faces) if checked is None else checked
         self._creases = StaticArray(creases)
         self._corners = StaticArray(corners)
         self._crease_sharpness = StaticArray(crease_sharpness, np.float64)

@@ -19,7 +19,7 @@ from ._base import APPROXIMATE, CORNER_TANGENTS, AbstractSurfaceScheme, Counts
 from ._catmull_clark import CatmullClark
 from ._local import Patches, _level, refine_patches, vertex_rings
 from ._loop import Loop
-from ._mesh import Mesh
+from ._mesh import Mesh, StaticArray
 from ._stencil import Sparse, StencilTable
 from ._topology import build_topology
 
@@ -150,8 +150,9 @@ class Refiner(eqx.Module):
         topo = build_topology(faces, count, creases, corners, scheme.boundary_corners)
         _check_surface_memory(topo, scheme, levels, memory_budget)
         for level in range(levels):
+            # Levels after the first refine a refined mesh, valid by construction.
             step = _level(scheme, faces, count, creases, corners, *sharpness,
-                          topo=None if level else topo)  # fmt: skip
+                          topo=None if level else topo, validate=False)  # fmt: skip
             tables.append(StencilTable.from_sparse(step.stencil))
             count = step.stencil.shape[0]
             faces, creases, corners = step.faces, step.creases, step.corners
@@ -161,6 +162,8 @@ class Refiner(eqx.Module):
         self.levels = levels
         self.num_base_vertices = mesh.num_vertices
         self.memory_budget = memory_budget
+        # The refined faces are checked by construction and ours: no check, no copy.
+        faces = faces if levels == 0 else StaticArray.owned(faces)
         self._template = Mesh(np.zeros((count, 0)), faces, creases=creases, corners=corners,
                               crease_sharpness=sharpness[0], corner_sharpness=sharpness[1])
 
@@ -356,7 +359,7 @@ def _semi_sharp_limit(mesh: Mesh, scheme: AbstractSurfaceScheme, budget: float,
         ) from None
     refiner = Refiner(mesh, scheme, levels, memory_budget=budget)
     fine = build_topology(refiner.faces, refiner.num_vertices, refiner.creases,
-                          refiner.corners, scheme.boundary_corners)  # fmt: skip
+                          refiner.corners, scheme.boundary_corners, validate=False)  # fmt: skip
     stencils = scheme.limit(fine, refiner.creases, refiner.corners)
     return stencils.compose(np.arange(mesh.num_vertices), refiner._composite_sparse())
 

@@ -32,14 +32,25 @@ class Sparse:
     @staticmethod
     def build(rows, cols, weights, shape) -> "Sparse":
         """Sum duplicate entries, drop zeros and sort by (row, column)."""
-        rows = np.asarray(rows, np.int64).reshape(-1)
-        cols = np.asarray(cols, np.int64).reshape(-1)
+        # int32 indices where they fit (scipy's choice too): scipy then skips scanning
+        # int64 ones for their range, and the copies are half the size.
+        index = np.int32 if max(shape) < 2**31 - 1 else np.int64
+        rows = np.asarray(rows, index).reshape(-1)
+        cols = np.asarray(cols, index).reshape(-1)
         weights = np.broadcast_to(np.asarray(weights, np.float64), rows.shape).reshape(-1)
         shape = (int(shape[0]), int(shape[1]))
         # scipy's compiled conversion to CSR groups by row in linear time and sorts the
         # few columns of each row: 3-4x faster than a global sort of (row, column) keys
         # (`np.unique`) on Catmull-Clark's level 3 (`benchmarks/bench_surface_build.py`).
         return Sparse._from_csr(_csr((weights, (rows, cols)), shape))
+
+    @staticmethod
+    def blocks(rows: list, cols: list, weights: list, shape) -> "Sparse":
+        """`build` from lists of equally long blocks, concatenated straight into the
+        index dtype (no int64 copies of the whole: less memory to fault in)."""
+        index = np.int32 if max(shape) < 2**31 - 1 else np.int64
+        return Sparse.build(np.concatenate(rows, dtype=index), np.concatenate(cols, dtype=index),
+                            np.concatenate(weights, dtype=np.float64), shape)  # fmt: skip
 
     @staticmethod
     def _from_csr(matrix) -> "Sparse":
