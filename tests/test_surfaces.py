@@ -1517,6 +1517,10 @@ def test_errors():
         jss.Refiner(jss.Mesh(v, f, creases=[[0, 7]]), jss.CatmullClark())
     with pytest.raises(ValueError, match="uses the same vertex twice"):
         jss.Refiner(jss.Mesh(v, [[0, 1, 1, 2]]), jss.CatmullClark())
+    wide = [[0, 1, 2], list(range(3, 12)) + [4]]  # 10 columns: checked by sorting
+    for faces in (wide, [[0, 1, 2], [3, 4, 5, 6, 7, 8, 4]]):  # padded; 7 columns: by pairs
+        with pytest.raises(ValueError, match="face 1 uses the same vertex twice"):
+            jss.Refiner(jss.Mesh(np.zeros((12, 3)), faces), jss.CatmullClark())
     with pytest.raises(ValueError, match="only 8 vertices"):
         jss.Mesh(v, [[0, 1, 9]])
     with pytest.raises(ValueError, match="face 1 holds the index -2; vertex indices are 0 or more"):

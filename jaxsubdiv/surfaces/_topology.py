@@ -204,7 +204,14 @@ def build_topology(
     dest = origin[nxt]
 
     # A vertex repeated inside one face: equal neighbours once each face is sorted.
-    if validate:
+    if validate and faces.shape[1] <= 8:
+        # Compare every pair of columns: cheaper than sorting each face when faces are small.
+        K = faces.shape[1]
+        repeated = np.zeros(len(faces), bool)
+        for i in range(K):
+            for j in range(i + 1, K):
+                repeated |= (faces[:, i] == faces[:, j]) & (faces[:, j] >= 0)
+    elif validate:
         ordered = np.sort(faces, axis=1)
         repeated = np.any((ordered[:, 1:] == ordered[:, :-1]) & (ordered[:, 1:] >= 0), axis=1)
     if validate and np.any(repeated):
