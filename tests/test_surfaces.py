@@ -1517,6 +1517,12 @@ def test_errors():
         jss.Refiner(jss.Mesh(v, f, creases=[[0, 7]]), jss.CatmullClark())
     with pytest.raises(ValueError, match="uses the same vertex twice"):
         jss.Refiner(jss.Mesh(v, [[0, 1, 1, 2]]), jss.CatmullClark())
+    # Two triangles glued along all three edges: valid, but Loop's first level has the
+    # middle triangle twice (edges in four faces), which the second level must refuse.
+    with pytest.raises(ValueError, match=r"Loop\(\) made a mesh that is not manifold at level 1"):
+        jss.Refiner(jss.Mesh(np.eye(3), [[0, 1, 2], [2, 1, 0]]), jss.Loop(), 2)
+    empty = jss.Refiner(jss.Mesh(np.zeros((2, 3)), np.zeros((0, 4), int)), jss.CatmullClark(), 2)
+    assert empty.faces.shape == (0, 3) and empty.num_vertices == 2
     wide = [[0, 1, 2], list(range(3, 12)) + [4]]  # 10 columns: checked by sorting
     for faces in (wide, [[0, 1, 2], [3, 4, 5, 6, 7, 8, 4]]):  # padded; 7 columns: by pairs
         with pytest.raises(ValueError, match="face 1 uses the same vertex twice"):

@@ -150,9 +150,19 @@ class Refiner(eqx.Module):
         topo = build_topology(faces, count, creases, corners, scheme.boundary_corners)
         _check_surface_memory(topo, scheme, levels, memory_budget)
         for level in range(levels):
-            # Levels after the first refine a refined mesh, valid by construction.
-            step = _level(scheme, faces, count, creases, corners, *sharpness,
-                          topo=None if level else topo, validate=False)  # fmt: skip
+            # Levels after the first refine a refined mesh: only its edges are checked.
+            try:
+                step = _level(scheme, faces, count, creases, corners, *sharpness,
+                              topo=None if level else topo, validate=False)  # fmt: skip
+            except ValueError as error:
+                if not level or "not manifold" not in str(error):
+                    raise
+                raise ValueError(
+                    f"Refiner: {type(scheme).__name__}() made a mesh that is not manifold "
+                    f"at level {level} ({error}) from this valid one. Loop does this to "
+                    "two triangles glued along all three edges: its first level has their "
+                    "middle triangle twice. Use a mesh of more faces, or `CatmullClark()`."
+                ) from None
             tables.append(StencilTable.from_sparse(step.stencil))
             count = step.stencil.shape[0]
             faces, creases, corners = step.faces, step.creases, step.corners
@@ -163,7 +173,7 @@ class Refiner(eqx.Module):
         self.num_base_vertices = mesh.num_vertices
         self.memory_budget = memory_budget
         # The refined faces are checked by construction and ours: no check, no copy.
-        faces = faces if levels == 0 else StaticArray.owned(faces)
+        faces = StaticArray.owned(faces) if levels and faces.size else faces
         self._template = Mesh(np.zeros((count, 0)), faces, creases=creases, corners=corners,
                               crease_sharpness=sharpness[0], corner_sharpness=sharpness[1])
 

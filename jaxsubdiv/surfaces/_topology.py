@@ -181,9 +181,11 @@ def build_topology(
     Raises a `ValueError` that names the offending face, edge or vertex for faces with
     fewer than three vertices, a repeated vertex or an out-of-range index, for edges
     shared by more than two faces, for neighboring faces of opposite orientation, and for
-    non-manifold ("bowtie") vertices. `validate=False` skips the checks that a refined
-    mesh passes by construction (the faces of a level of a valid mesh; the indices are
-    still checked): they cost a third of building a level's topology.
+    non-manifold ("bowtie") vertices. `validate=False` is for the faces of a level of a
+    checked mesh: it skips the two costly checks, a vertex repeated in a face (every
+    scheme's refined faces list distinct new vertices) and two fans at an interior
+    vertex (a child's fans follow its parent's). The cheap edge checks stay: Loop makes
+    edges in four faces from two triangles glued along all their edges (a valid mesh).
     """
     faces = np.asarray(faces)
     origin, sizes = flatten_faces(faces)
@@ -231,7 +233,7 @@ def build_topology(
     ecounts = np.diff(np.append(first, H))
     edge = np.empty(H, np.int64)
     edge[order] = np.cumsum(starts) - 1
-    if validate and np.any(ecounts > 2):
+    if np.any(ecounts > 2):
         k = ukeys[np.argmax(ecounts > 2)]
         raise ValueError(
             f"The mesh is not manifold: edge ({int(k // V)}, {int(k % V)}) is shared by "
@@ -239,7 +241,7 @@ def build_topology(
         )
     pair = ecounts == 2
     a, b = order[first[pair]], order[first[pair] + 1]
-    same = origin[a] == origin[b] if validate else np.zeros(0, bool)  # both run the same way
+    same = origin[a] == origin[b]  # both half-edges run the same way
     if np.any(same):
         h = a[np.argmax(same)]
         raise ValueError(
@@ -254,7 +256,7 @@ def build_topology(
 
     valence = np.bincount(edges.reshape(-1), minlength=V)
     nboundary = np.bincount(edges[boundary_edge].reshape(-1), minlength=V)
-    if validate and np.any((nboundary != 0) & (nboundary != 2)):
+    if np.any((nboundary != 0) & (nboundary != 2)):
         v = int(np.argmax((nboundary != 0) & (nboundary != 2)))
         raise ValueError(
             f"The mesh is not manifold at vertex {v}: it touches {int(nboundary[v])} "
