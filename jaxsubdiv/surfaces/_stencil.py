@@ -32,9 +32,7 @@ class Sparse:
     @staticmethod
     def build(rows, cols, weights, shape) -> "Sparse":
         """Sum duplicate entries, drop zeros and sort by (row, column)."""
-        # int32 indices where they fit (scipy's choice too): scipy then skips scanning
-        # int64 ones for their range, and the copies are half the size.
-        index = np.int32 if max(shape) < 2**31 - 1 else np.int64
+        index = _index_dtype(shape)
         rows = np.asarray(rows, index).reshape(-1)
         cols = np.asarray(cols, index).reshape(-1)
         weights = np.broadcast_to(np.asarray(weights, np.float64), rows.shape).reshape(-1)
@@ -48,7 +46,7 @@ class Sparse:
     def blocks(rows: list, cols: list, weights: list, shape) -> "Sparse":
         """`build` from lists of equally long blocks, concatenated straight into the
         index dtype (no int64 copies of the whole: less memory to fault in)."""
-        index = np.int32 if max(shape) < 2**31 - 1 else np.int64
+        index = _index_dtype(shape)
         return Sparse.build(np.concatenate(rows, dtype=index), np.concatenate(cols, dtype=index),
                             np.concatenate(weights, dtype=np.float64), shape)  # fmt: skip
 
@@ -103,6 +101,12 @@ class Sparse:
         out = np.zeros(self.shape)
         np.add.at(out, (self.rows, self.cols), self.weights)
         return out
+
+
+def _index_dtype(shape) -> type:
+    """int32 indices where they fit (scipy's choice too): scipy then skips scanning int64
+    ones for their range, and the copies are half the size."""
+    return np.int32 if max(shape) < 2**31 - 1 else np.int64
 
 
 def _csr(*args, **kwargs):
