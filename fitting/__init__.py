@@ -9,6 +9,7 @@ from ._checks import (
     ORDER_SAMPLES_LIMIT as ORDER_SAMPLES_LIMIT,
     fit_memory as fit_memory,
 )
+from ._corners import find_corners as find_corners
 from ._fit import fit as fit
 from ._init import order_samples as order_samples
 from ._progress import progress_verbose as progress_verbose

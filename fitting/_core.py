@@ -27,7 +27,7 @@ from jaxsubdiv.validation import is_traced
 
 from . import _exported, _progress
 from ._curve import curve_samples
-from ._init import canonical_order, initial_control
+from ._init import canonical_order, corner_creases, initial_control
 from ._objective import FitData, Objective, curve_errors
 from ._params import from_unconstrained, to_unconstrained
 from ._result import FitResult, status_code
@@ -36,16 +36,20 @@ from ._solver import FootPointLevenbergMarquardt
 
 def make_objective(scheme, *, n: int, levels: int, boundary: str, names: tuple[str, ...],
                    hermite: bool, size: int, profile: int = 0,
-                   pin_ends: bool = False) -> Objective:
+                   pin_ends: bool = False, corners: bool = False) -> Objective:
     """The fit's `Objective` for `n` control points and `size` samples (the bucket),
     built on the host: every field is a Python value, so equal settings compare (and
     hash) equal and select the same compiled program. `profile`: values per fitted
     parameter of the profile before the joint fit (`profile_start`), 0 for none.
-    `pin_ends`: the curve's ends on the first and last samples (`end_pivots`)."""
+    `pin_ends`: the curve's ends on the first and last samples (`end_pivots`).
+    `corners`: a closed curve creased at the control points of the samples'
+    corners (`FitData.corners`), by chords."""
     pivots = end_pivots(scheme, n, levels, boundary) if pin_ends else ()
     return Objective(n=n, levels=levels, boundary=boundary, names=tuple(names),
-                     hermite=hermite, num_curve=curve_samples(scheme, n, levels, boundary),
-                     num_target=size, profile=profile if names else 0, pivots=pivots)
+                     hermite=hermite and not corners,
+                     num_curve=curve_samples(scheme, n, levels, boundary),
+                     num_target=size, profile=profile if names else 0, pivots=pivots,
+                     corners=corners)
 
 
 def end_pivots(scheme, n: int, levels: int, boundary: str) -> tuple[int, int]:
@@ -100,6 +104,7 @@ class Solved(eqx.Module):
 
     control_points: Array
     scheme: Any
+    creases: Array | None
     curve: Array
     tangents: Array | None
     target: Array
@@ -167,6 +172,8 @@ def set_up(data: FitData, init, objective: Objective) -> Problem:
         data = eqx.tree_at(lambda d: (d.target, d.weights), data,
                            (data.target[order],
                             jnp.where(outline, data.weights[order], data.weights)))
+        if objective.corners:
+            data = eqx.tree_at(lambda d: d.corners, data, outline & data.corners[order])
     target, weights, scheme = data.target, data.weights, data.scheme
     dtype = target.dtype
     # Weights are relative: divided by the largest first, so that normalising them to
@@ -188,19 +195,24 @@ def set_up(data: FitData, init, objective: Objective) -> Problem:
     reach = jnp.where(reach > 0, reach, 1.0)
     scale = reach * jnp.sqrt(share @ jnp.sum((offsets / reach) ** 2, -1))
     scale = jnp.where(scale > 0, scale, 1.0)
+    # Corners: the creased control points, and the samples' starting positions that put
+    # each corner sample at its crease.
+    creases, position = (corner_creases(target, data.corners & valid, objective.n)
+                         if objective.corners else (None, None))
     # The curve's basis at the starting parameters: for the initial linear fit, for the
     # whole solve when no parameter is fitted, and for the final curve then.
-    basis = objective.basis_of(scheme, dtype)
+    basis = objective.basis_of(scheme, dtype, creases)
     if basis[0].shape[0] != objective.num_curve:  # static shapes: a defect, never data
         raise AssertionError(f"the objective expects {objective.num_curve} curve samples, "
                              f"the basis has {basis[0].shape[0]} rows")
     # The problem in units of the outline's size.
     scaled = FitData(target=(target - center) / scale, weights=weights, scheme=scheme,
                      root_smoothing=data.root_smoothing,
-                     basis=None if objective.names else basis, count=data.count)
+                     basis=None if objective.names else basis, count=data.count,
+                     corners=data.corners, creases=creases)
     if init is None:
         P0 = initial_control(scaled.target, weights, basis[0], objective.boundary,
-                             data.root_smoothing**2)
+                             data.root_smoothing**2, position, creases)
     else:
         P0 = (init - center) / scale
     y0 = {"control": jax.lax.stop_gradient(objective.unknowns(P0)),
@@ -219,6 +231,7 @@ def solved_from(objective: Objective, problem: Problem, value, *, hint, num_step
     return Solved(
         control_points=center + scale * objective.control_of(value, scaled),
         scheme=from_unconstrained(scaled.scheme, objective.names, value["params"]),
+        creases=scaled.creases,
         curve=curve,
         tangents=tangents,
         target=scaled.target,
@@ -270,6 +283,7 @@ def measure_arguments(solved: Solved) -> tuple:
 def assemble(solved: Solved, measured: dict, objective: Objective) -> FitResult:
     """The `FitResult` from `solve_one`'s and `measure_one`'s outputs."""
     return FitResult(control_points=solved.control_points, scheme=solved.scheme,
+                     creases=solved.creases,
                      num_steps=solved.num_steps, status=solved.status,
                      newton_step=solved.newton_step, boundary=objective.boundary,
                      levels=objective.levels, **measured)
@@ -355,11 +369,13 @@ def profile_start(objective: Objective, data: FitData, y0: dict, tol, max_steps)
         solver = default_solver(fixed, jnp.where(start, tol, jnp.maximum(tol, PROFILE_TOL)),
                                 valid_count, steps)
         held_scheme = from_unconstrained(scheme, names, raw)
-        basis = fixed.basis_of(held_scheme, dtype)
+        basis = fixed.basis_of(held_scheme, dtype, data.creases)
         at = eqx.tree_at(lambda d: (d.scheme, d.basis), data, (held_scheme, basis),
                          is_leaf=lambda x: x is None)
+        position = (corner_creases(at.target, at.corners & (at.weights > 0), objective.n)[1]
+                    if objective.corners else None)
         P0 = initial_control(at.target, at.weights, basis[0], objective.boundary,
-                             at.root_smoothing**2)
+                             at.root_smoothing**2, position, at.creases)
         P0 = jnp.where(start, y0["control"], fixed.unknowns(P0))
         sol = optx.least_squares(fixed.residuals, solver, {"control": P0, "params": {}},
                                  args=at, max_steps=None, throw=False)
@@ -396,6 +412,7 @@ def solved_structure(scheme, objective: Objective, counted: bool):
     """The pytree structure of `solve_one`'s `Solved` with the default solver (the fitted
     scheme has the structure of the given one; `counted`: the data have a `count`)."""
     varying = dict(scheme=scheme, tangents=0.0 if objective.hermite else None,
+                   creases=0.0 if objective.corners else None,
                    count=0.0 if counted else None,
                    feet=0.0 if objective.closed and objective.hermite else None)
     # Every other field is one array.

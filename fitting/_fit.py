@@ -6,6 +6,7 @@ how it runs), `_batch` (`fit_batch` over devices and threads), `_objective` (the
 `_solver` (the solvers), `_curve` (the curve model), `_params` (fitted parameters).
 """
 
+from collections.abc import Sequence
 from typing import Literal
 
 import equinox as eqx
@@ -19,14 +20,17 @@ from jaxsubdiv.validation import DEFAULT_MEMORY_BUDGET, is_traced, static_int
 
 from ._checks import (
     bucket,
+    check_memory,
     check_on_failure,
     check_tol,
+    default_levels,
     default_tol,
     float_array,
     pad,
     prepare,
 )
 from ._core import make_objective, run, traced_settings
+from ._corners import corner_flags
 from ._objective import FitData
 from ._params import uses_tangents
 from ._result import FitResult, report
@@ -41,6 +45,7 @@ def fit(
     levels: int | None = None,
     boundary: Literal["closed", "open", "clamped"] = "closed",
     pin_ends: bool = False,
+    corners: None | Literal["auto"] | Sequence[int] = None,
     fit_params: bool | str | tuple[str, ...] = False,
     profile: int | None = None,
     init: Float[ArrayLike, "n d"] | None = None,
@@ -116,6 +121,20 @@ def fit(
       two control points (`_core.end_pivots`) are solved from the others and the two end
       samples, so derivatives with respect to the end samples move the ends. An `init`
       polygon has those two points replaced. See `docs/fitting.md`, "Open strokes".
+    - `corners`: `None` (default: a smooth curve), `"auto"` (corners found in the
+      samples by [`fitting.find_corners`][] with its defaults), or indices of the corner
+      samples (of `target` as given; ordered samples). A closed outline with corners is
+      fitted with *creased* control points, one per corner, which the curve passes
+      through with a corner (the scheme's crease rule: `jaxsubdiv.refine(creases=...)`),
+      so corners are neither rounded nor overshot. The control points are shared among
+      the pieces between corners in proportion to their arc length, and the creases
+      sit at the corner samples' control points at the start; the solver then moves
+      every control point, corners included. `result.creases` marks them. The curve is
+      modelled by chords (default `levels` as for non-C1 schemes); the creases are
+      data, so fits with other corners reuse the compiled program. Closed curves of
+      primal schemes (CubicBSpline, FourPoint, SplitTweak, Jarek); at most `n_control`
+      corners (`"auto"` keeps the strongest). No corners found: the smooth fit. See
+      `docs/fitting.md`, "Corners".
     - `fit_params`: `False`, `True` (all of the scheme's parameters) or names such as
       `("w",)`. Fittable: `CornerCutting` r, s; `FourPoint` w (kept in
       (0, 0.19), where the scheme is C1); `SplitTweak` t. The scheme's values are the
@@ -182,11 +201,18 @@ def fit(
     pad_to = 0 if pad_to is None else static_int(pad_to, "pad_to", minimum=1)
     if not (isinstance(progress, bool) or progress == "time"):
         raise ValueError(f"`fit(progress=...)` must be True, False or 'time'; got {progress!r}.")
+    levels_given = levels is not None
     target, weights, n, levels, names, profile = prepare(
         target, scheme, n_control, levels=levels, boundary=boundary, fit_params=fit_params,
         weights=weights, ordered=ordered, smoothing=smoothing, pad_to=pad_to,
         memory_budget=memory_budget, profile=profile, pin_ends=pin_ends,
     )
+    flags = corner_flags(corners, target, scheme, n, boundary, pin_ends, ordered)
+    if flags is not None and not levels_given:
+        # The creased curve is modelled by chords: their default levels (checked again).
+        levels = default_levels(n, bucket(max(target.shape[0], pad_to)), False)
+        check_memory("fit", target.shape[0], pad_to, n, levels, scheme, boundary,
+                     target.dtype, memory_budget, ordered)
     max_steps = static_int(max_steps, "max_steps", minimum=1)
     tol = default_tol(target.dtype) if tol is None else check_tol(tol, "fit")
     if init is not None:
@@ -208,12 +234,15 @@ def fit(
     solver = make_solver(solver, tol, tol, progress is True)
     objective = make_objective(scheme, n=n, levels=levels, boundary=boundary, names=names,
                                hermite=uses_tangents(scheme, names, boundary), size=size,
-                               profile=profile, pin_ends=pin_ends)
+                               profile=profile, pin_ends=pin_ends,
+                               corners=flags is not None)
     root_smoothing, tol, max_steps = traced_settings(smoothing, tol, max_steps, target.dtype,
                                                      solver is None)
     padded, weights = pad(target, weights, size)
+    if flags is not None:
+        flags = jnp.asarray(np.concatenate([flags, np.zeros(size - m, bool)]))
     data = FitData(target=padded, weights=weights, scheme=scheme,
-                   root_smoothing=root_smoothing, count=np.int32(m))
+                   root_smoothing=root_smoothing, count=np.int32(m), corners=flags)
     result = run(data, init, tol, max_steps, objective=objective, solver=solver,
                  progress=progress)
     if result.control_points.dtype != dtype:

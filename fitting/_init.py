@@ -3,7 +3,7 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float, Int
+from jaxtyping import Array, Bool, Float, Int
 
 
 def order_samples(points, *, closed: bool = True) -> np.ndarray:
@@ -82,11 +82,55 @@ def interpolate_rows(table: Float[Array, "N k"], position: Float[Array, " m"], c
     return (1 - frac) * table[i0] + frac * table[i1]
 
 
-def second_differences(n: int, closed: bool, dtype) -> Array:
+def second_differences(n: int, closed: bool, dtype, creases=None) -> Array:
+    """The second differences of the control points, as a matrix; on a creased closed
+    curve (`creases`, a boolean mask `(n,)`) none is taken at a creased point, so that
+    smoothing does not round the corners."""
     eye = jnp.eye(n, dtype=dtype)
     if closed:
-        return jnp.roll(eye, -1, axis=1) - 2 * eye + jnp.roll(eye, 1, axis=1)
+        D = jnp.roll(eye, -1, axis=1) - 2 * eye + jnp.roll(eye, 1, axis=1)
+        return D if creases is None else jnp.where(creases[:, None], 0.0, D)
     return eye[:-2] - 2 * eye[1:-1] + eye[2:]
+
+
+def corner_creases(
+    target: Float[Array, "m d"], corners: Bool[Array, " m"], n: int
+) -> tuple[Bool[Array, " n"], Float[Array, " m"]]:
+    """The creased control points for a closed outline's corner samples, and every
+    sample's starting position along the curve (in control-point units, `[0, n)`).
+
+    The corners (flags on the samples, in their canonical order) are given control
+    points in proportion to the arc length between them: corner `j`, at chord-length
+    fraction `u_j` of the outline from the first corner, gets control point
+    `round(n u_j)`, moved on where two would coincide (cumulative maxima keep them
+    strictly increasing, and each is capped at `n - K + j` for K corners, so K <= n
+    always fit), the first at 0. A sample between corners `j` and `j + 1`
+    starts at the chord-length position between their control points, so every corner
+    sample starts exactly at its crease. Traceable: the corners are data.
+    """
+    m = target.shape[0]
+    fractions = chord_fractions(target, True)
+    first = jnp.argmax(corners)
+    u = jnp.mod(fractions - fractions[first], 1.0)
+    order = jnp.argsort(jnp.where(corners, u, jnp.inf))  # the corners first, in turn
+    count = jnp.sum(corners)
+    j = jnp.arange(m)
+    real = j < count
+    at = jnp.where(real, u[order], 1.0)
+    raw = jnp.round(n * at).astype(jnp.int32)
+    index = jax.lax.cummax(jnp.where(real, raw - j, -m)) + j
+    index = jnp.minimum(index, n - count + j)
+    index = jnp.where(j == 0, 0, index)
+    creases = jnp.zeros((n,), bool).at[jnp.where(real, index, n)].set(True, mode="drop")
+    # Each sample's piece: the last corner at or before it (in u).
+    piece = jnp.clip(jnp.searchsorted(at, u, side="right") - 1, 0, jnp.maximum(count - 1, 0))
+    start_u, start_c = at[piece], index[piece]
+    last = piece + 1 >= count
+    end_u = jnp.where(last, 1.0, at[jnp.minimum(piece + 1, m - 1)])
+    end_c = jnp.where(last, n, index[jnp.minimum(piece + 1, m - 1)])
+    span = end_u - start_u
+    share = jnp.where(span > 0, (u - start_u) / jnp.where(span > 0, span, 1.0), 0.0)
+    return creases, start_c + (end_c - start_c) * share
 
 
 def canonical_order(target: Float[Array, "m d"], count=None) -> Int[Array, " m"]:
@@ -136,6 +180,8 @@ def initial_control(
     table: Float[Array, "N n"],
     boundary: str,
     smoothing,
+    position=None,
+    creases=None,
 ) -> Float[Array, "n d"]:
     """Linear least-squares control points for chord-length parameters (from the first
     sample: `fit` has put a closed outline's samples in `canonical_order`).
@@ -148,12 +194,18 @@ def initial_control(
     second differences; $\\mu$ is the user's smoothing plus a tiny ridge (1e-9 of the
     system's scale) that keeps the system positive definite when samples leave some
     control point unconstrained.
+
+    `position`: each sample's position in control-point units instead of its chord
+    fraction (`corner_creases`); `creases`: the creased control points (no second
+    differences there).
     """
     closed = boundary == "closed"
     fractions = chord_fractions(target, closed)
     N, n = table.shape
+    if position is not None:
+        fractions = position / n
     W = weights / jnp.sum(weights)
-    D = second_differences(n, closed, target.dtype)
+    D = second_differences(n, closed, target.dtype, creases)
 
     def solve_at(position):
         B = interpolate_rows(table, position, closed)

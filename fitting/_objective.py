@@ -31,6 +31,7 @@ import numpy as np
 from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, ArrayLike, Float, Int
 
+import jaxsubdiv as js
 from jaxsubdiv import AbstractCurveScheme
 
 from ._curve import (
@@ -85,6 +86,10 @@ class FitData(eqx.Module):
     - `basis`: `Objective.basis_of(scheme)` when no scheme parameter is fitted
       (computed once, outside the solver loop), else None.
     - `count`: the number of samples before padding (None: no padding).
+    - `corners`: `(m,)` flags of the samples at corners of a closed outline (a creased
+      fit, `Objective.corners`), else None.
+    - `creases`: `(n,)` flags of the creased control points, set from `corners` by
+      `_core.set_up` (`_init.corner_creases`), else None.
     """
 
     target: Float[Array, "m d"]
@@ -93,6 +98,8 @@ class FitData(eqx.Module):
     root_smoothing: Float[ArrayLike, ""]
     basis: Any = None
     count: Int[ArrayLike, ""] | None = None
+    corners: Any = None
+    creases: Any = None
 
 
 class TwoSidedErrors(eqx.Module):
@@ -217,6 +224,8 @@ class Objective(eqx.Module):
     # Open and clamped curves with pinned ends (`control`): the two control points
     # solved from the end constraints, else (). Chosen on the host (`end_pivots`).
     pivots: tuple[int, ...] = eqx.field(static=True, default=())
+    # Closed curves with corners: creased control points (`FitData.creases`), by chords.
+    corners: bool = eqx.field(static=True, default=False)
 
     @property
     def closed(self) -> bool:
@@ -232,10 +241,15 @@ class Objective(eqx.Module):
             index = np.append(index, self.num_curve - 1)
         return index
 
-    def basis_of(self, scheme, dtype):
+    def basis_of(self, scheme, dtype, creases=None):
         """The curve's basis matrices (samples, tangents or None) for `scheme`, and the
         same by segments (`_curve.Band`) for the Hessian's assembly, both from the
-        curve's stencil tables (`_curve.curve_tables`)."""
+        curve's stencil tables (`_curve.curve_tables`; with `creases`, a mask of the
+        creased control points, the creased closed curve's, by chords)."""
+        if self.corners:
+            position = js.curve_stencil(scheme, self.n, self.levels, creases=creases,
+                                        dtype=dtype)
+            return position.dense(), None, band_basis(position, None)
         tables = curve_tables(scheme, self.n, self.levels, self.boundary, dtype, self.hermite)
         position, tangent = tables
         V = None if tangent is None else tangent.dense()
@@ -247,7 +261,7 @@ class Objective(eqx.Module):
         if fixed is not None:
             return base, *fixed
         scheme = from_unconstrained(base, self.names, y["params"])
-        return scheme, *self.basis_of(scheme, target.dtype)
+        return scheme, *self.basis_of(scheme, target.dtype, args.creases)
 
     @property
     def free(self) -> np.ndarray:
@@ -377,7 +391,7 @@ class Objective(eqx.Module):
         length = jnp.sqrt(jnp.where(beyond, square, 1.0))
         back = back * jnp.where(beyond, 1 - band / length, 0.0)[:, None]
         back = back * jnp.sqrt(BACK_WEIGHT * valid_count / held.shape[0])
-        D = second_differences(self.n, self.closed, target.dtype)
+        D = second_differences(self.n, self.closed, target.dtype, args.creases)
         return e, back, args.root_smoothing / np.sqrt(self.n) * (D @ P)
 
     def residuals(self, y, args):
@@ -498,7 +512,7 @@ class Objective(eqx.Module):
         hessian = jnp.zeros((n * d, n * d), dtype)
         hessian = hessian.at[index[:, :, None], index[:, None, :]].add(blocks)
         gradient = jnp.zeros((n * d,), dtype).at[index].add(block_gradients)
-        D = second_differences(n, self.closed, dtype)
+        D = second_differences(n, self.closed, dtype, args.creases)
         loss += (smoothing / n) * jnp.sum((D @ P) ** 2)
         gradient += (smoothing / n) * (D.T @ (D @ P)).reshape(-1)
         hessian += (smoothing / n) * jnp.kron(D.T @ D, eye)

@@ -5,7 +5,7 @@ import warnings
 import equinox as eqx
 import numpy as np
 import optimistix as optx
-from jaxtyping import Array, Float, Int
+from jaxtyping import Array, Bool, Float, Int
 
 import jaxsubdiv as js
 from jaxsubdiv.validation import is_traced
@@ -79,6 +79,10 @@ class FitResult(eqx.Module):
 
     - `control_points`: the fitted control polygon, `(n, d)`.
     - `scheme`: the scheme with its fitted parameters (e.g. `result.scheme.w`).
+    - `creases`: with `fit(corners=...)` and corners found, a boolean mask `(n,)` of the
+      creased control points (the curve passes through each with a corner:
+      `jaxsubdiv.refine(P, scheme, levels, creases=np.flatnonzero(result.creases))`),
+      else None.
     - `curve`: the limit curve at the dyadic parameters of `levels` levels, `(N, d)`.
     - `rms`, `max_error`: two-sided RMS and maximum distance.
     - `rms_target_to_curve`, `max_target_to_curve`, `rms_curve_to_target`,
@@ -101,6 +105,7 @@ class FitResult(eqx.Module):
 
     control_points: Float[Array, "*batch n d"]
     scheme: js.AbstractCurveScheme
+    creases: Bool[Array, "*batch n"] | None
     curve: Float[Array, "*batch N d"]
     rms: Float[Array, "*batch"]
     max_error: Float[Array, "*batch"]

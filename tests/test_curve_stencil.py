@@ -362,3 +362,117 @@ def test_fit_model_equals_dense_assembly(scheme, n, boundary):
     np.testing.assert_allclose(loss, dense_loss, rtol=1e-12)
     np.testing.assert_allclose(gradient, dense_gradient, atol=1e-12 * scale)
     np.testing.assert_allclose(hessian, dense_hessian, atol=1e-12 * scale)
+
+
+# --------------------------------------------------------------------------------------
+# Creases as a (traced) mask: `curve_stencil(creases=...)`.
+
+# Crease sets on 3, 5 and 9 points: none, one (the piece wraps onto itself), neighbours
+# (pieces of one span), every point, and uneven gaps.
+# (Few piece lengths: the reference compiles refine and limit_points for each.)
+_CREASE_SETS = [(3, (1,)), (3, (0, 1, 2)), (5, (0, 1)), (5, (2,)), (9, ()), (9, (0, 3, 4, 8)),
+                (9, (0, 1, 5)), (9, tuple(range(9)))]
+_CREASE_SCHEMES = [("cubic_bspline", js.CubicBSpline()), ("four_point", js.FourPoint(0.1)),
+                   ("split_tweak", js.SplitTweak(0.3))]
+_CREASE_LEVELS = 3
+
+
+def _mask(n, creases):
+    mask = np.zeros(n, bool)
+    mask[list(creases)] = True
+    return mask
+
+
+def _pieces_by_refine(P, scheme, levels, creases):
+    """The creased closed curve's limit samples piece by piece: each clamped piece
+    refined and pushed to its limit (`refine` + `limit_points`, the kernel's own clamped
+    rules), the pieces joined at their shared creases, from control point 0."""
+    n = len(P)
+    if not creases:
+        return np.asarray(js.limit_points(js.refine(P, scheme, levels), scheme))
+    cuts = sorted(creases)
+    out = []
+    for k, c in enumerate(cuts):
+        end = cuts[k + 1] if k + 1 < len(cuts) else cuts[0] + n
+        piece = P[np.arange(c, end + 1) % n]
+        refined = js.refine(piece, scheme, levels, boundary="clamped")
+        out.append(np.asarray(js.limit_points(refined, scheme, boundary="clamped"))[:-1])
+    return np.roll(np.concatenate(out), cuts[0] * 2**levels, axis=0)
+
+
+def _bspline_pieces_by_scipy(P, levels, creases):
+    """The creased closed cubic B-spline by scipy: each piece between creases is a
+    uniform cubic B-spline whose polygon is extended by the reflections 2 P_0 - P_1 and
+    2 P_D - P_{D-1} (the clamped end's ghost points), from its first to its last point."""
+    from scipy.interpolate import BSpline
+
+    n, rows = len(P), 2**levels
+    cuts = sorted(creases)
+    out = []
+    for k, c in enumerate(cuts):
+        end = cuts[k + 1] if k + 1 < len(cuts) else cuts[0] + n
+        piece = P[np.arange(c, end + 1) % n]
+        D = len(piece) - 1
+        ghosts = np.vstack([2 * piece[0] - piece[1], piece, 2 * piece[-1] - piece[-2]])
+        knots = np.arange(len(ghosts) + 4) - 3.0  # piece point p (ghost index p + 1) at t = p
+        u = np.arange(D * rows) / rows
+        out.append(BSpline(knots, ghosts, 3)(u))
+    return np.roll(np.concatenate(out), cuts[0] * rows, axis=0)
+
+
+@pytest.mark.parametrize("name, scheme", _CREASE_SCHEMES)
+def test_creased_table_equals_its_pieces(name, scheme):
+    """One table per (scheme, n), the mask traced: every crease set of that size gives
+    the pieces' curve (to 1e-12), compiling nothing new after the first."""
+    from helpers import CompileCounter
+
+    rng = np.random.default_rng(len(name))
+    for size in sorted({n for n, _ in _CREASE_SETS}):
+        sets = [c for n, c in _CREASE_SETS if n == size]
+        P = rng.normal(size=(size, 2))
+        js.curve_stencil(scheme, size, _CREASE_LEVELS, creases=jnp.asarray(_mask(size, ())))
+        with CompileCounter() as compiled:
+            for creases in sets:
+                table = js.curve_stencil(scheme, size, _CREASE_LEVELS,
+                                         creases=jnp.asarray(_mask(size, creases)))
+                got = np.asarray(table.apply(P))
+                want = _pieces_by_refine(P, scheme, _CREASE_LEVELS, creases)
+                assert got.shape == want.shape
+                np.testing.assert_allclose(got, want, atol=1e-12, err_msg=str(creases))
+                if isinstance(scheme, js.CubicBSpline) and creases:
+                    np.testing.assert_allclose(
+                        got, _bspline_pieces_by_scipy(P, _CREASE_LEVELS, creases), atol=1e-12)
+        # The tables compiled nothing (the reference's refine and limit_points did,
+        # once per piece length): count those by building the tables alone again.
+        with CompileCounter() as tables:
+            for creases in sets:
+                js.curve_stencil(scheme, size, _CREASE_LEVELS,
+                                 creases=jnp.asarray(_mask(size, creases)))
+        assert tables.count == 0
+        del compiled
+
+
+def test_creased_table_is_differentiable_in_the_parameter():
+    """d/dw of a creased four-point curve against central finite differences."""
+    P = np.random.default_rng(3).normal(size=(9, 2))
+    mask = jnp.asarray(_mask(9, (0, 3, 4)))
+
+    def curve(w):
+        return js.curve_stencil(js.FourPoint(w), 9, 2, creases=mask).apply(P)
+
+    w, h = 0.07, 1e-6
+    derivative = jax.jacfwd(curve)(w)
+    difference = (curve(w + h) - curve(w - h)) / (2 * h)
+    np.testing.assert_allclose(derivative, difference, atol=1e-8)
+
+
+def test_creased_table_errors():
+    mask = jnp.zeros(6, bool)
+    with pytest.raises(ValueError, match="dual"):
+        js.curve_stencil(js.Chaikin(), 6, 2, creases=mask)
+    with pytest.raises(ValueError, match="boundary='closed'"):
+        js.curve_stencil(js.CubicBSpline(), 6, 2, boundary="open", creases=mask)
+    with pytest.raises(ValueError, match="boolean mask of shape"):
+        js.curve_stencil(js.CubicBSpline(), 6, 2, creases=jnp.array([0, 2]))
+    with pytest.raises(ValueError, match="clamped end rule"):
+        js.curve_stencil(js.Daubechies(), 6, 2, creases=mask)

@@ -28,6 +28,7 @@ from .._refine import (
     refine,
 )
 from .._scheme.base import AbstractCurveScheme
+from .crease_stencil import check_creasable, crease_reach, creased_stencil
 from .local import (
     basis_at_integers,
     check_scheme,
@@ -291,6 +292,7 @@ def curve_stencil(
     boundary: Boundary = "closed",
     derivative: int | None = 0,
     dtype=None,
+    creases=None,
 ) -> CurveStencil:
     r"""The linear map from `n` control points to the limit curve at the dyadic
     parameters of `levels` levels, as a banded table ([`jaxsubdiv.CurveStencil`][]).
@@ -315,6 +317,12 @@ def curve_stencil(
       `limit_second_derivatives` of `refine(P, L)`; clamped curves support 0 only), or
       `None` for the refined points themselves (`refine(P, L)`). Static.
     - `dtype`: of the weights (default: the scheme's mask's).
+    - `creases`: `None`, or a boolean mask `(n,)` of the control points where a closed
+      curve has a corner (as `refine(creases=...)`, which takes their indices: the
+      curve is cut there into clamped pieces). Unlike `refine`'s, the mask may be
+      traced: the table's layout depends only on `n` and `levels`, so new creases
+      compile nothing. Closed curves of primal schemes with a clamped end rule, and
+      `derivative=0`. See `jaxsubdiv._analysis.crease_stencil`.
 
     **Returns:** a `CurveStencil`; `table.apply(P)` gives the outputs, as many as
     `limit_points(refine(P, L))` has rows (open curves lose the stencil's reach at each
@@ -322,7 +330,30 @@ def curve_stencil(
     """
     scheme = _check_stencil_arguments(scheme, n, levels, boundary, derivative, "curve_stencil")
     dtype = scheme.mask().dtype if dtype is None else jnp.dtype(dtype)
+    if creases is not None:
+        mask, reach = _check_creases_mask(scheme, n, boundary, derivative, creases)
+        return _creased_jit(scheme, n, levels, mask, reach, dtype)
     return _stencil_jit(scheme, n, levels, boundary, derivative, dtype)
+
+
+def _check_creases_mask(scheme, n, boundary, derivative, creases):
+    """`curve_stencil(creases=...)`'s checks: a boolean mask (traced or not) and the
+    scheme's reach (`crease_reach`)."""
+    if boundary != "closed" or derivative != 0:
+        raise ValueError(
+            "`curve_stencil(creases=...)` needs boundary='closed' and derivative=0 (an open "
+            "curve's creases are its pieces' ends: fit or refine the pieces); got "
+            f"boundary={boundary!r}, derivative={derivative!r}."
+        )
+    check_creasable(scheme, "curve_stencil(creases=...)")
+    mask = jnp.asarray(creases)
+    if mask.shape != (n,) or mask.dtype != jnp.bool_:
+        raise ValueError(
+            f"`curve_stencil(creases=...)` must be a boolean mask of shape ({n},) (one entry "
+            f"per control point); got dtype {mask.dtype}, shape {mask.shape}. For indices "
+            "`idx`, pass `jnp.zeros(n, bool).at[idx].set(True)`."
+        )
+    return mask, crease_reach(scheme)
 
 
 def _check_stencil_arguments(scheme, n, levels, boundary, derivative, caller):
@@ -371,6 +402,7 @@ def _stencil(scheme, n, levels, boundary, derivative, dtype) -> CurveStencil:
 # One compiled program per (scheme type, n, levels, boundary, derivative, dtype) when
 # called eagerly, instead of one per operation of the build.
 _stencil_jit = eqx.filter_jit(_stencil)
+_creased_jit = eqx.filter_jit(creased_stencil)
 
 
 def _limit_curve(points, scheme, levels, boundary, derivative):

@@ -1,0 +1,177 @@
+"""Fits with corners (`fitting.fit(corners=...)`, `fitting.find_corners`), issue #21.
+
+The references are closed forms: a five-point star's vertices (the fitted curve must pass
+through them, to the solver's tolerance), a polygon's exact representation by creased
+control points, and shapes without corners (ellipse, superellipse, a traced disk's pixel
+staircase) on which no corner may be found.
+"""
+
+import jax
+import numpy as np
+import pytest
+
+import fitting
+import jaxsubdiv as js
+
+
+def polygon_samples(vertices, m, phase=0.0):
+    """`m` samples evenly spaced by arc length along a closed polygon, the first at
+    fraction `phase` of its length from vertex 0 (so samples miss the vertices)."""
+    V = np.asarray(vertices, float)
+    edges = np.roll(V, -1, axis=0) - V
+    length = np.linalg.norm(edges, axis=1)
+    cumulative = np.concatenate([[0.0], np.cumsum(length)])
+    s = np.mod(np.arange(m) / m + phase, 1.0) * cumulative[-1]
+    i = np.searchsorted(cumulative, s, side="right") - 1
+    return V[i] + ((s - cumulative[i]) / length[i])[:, None] * edges[i]
+
+
+def star(k=5, outer=1.0, inner=0.45):
+    angle = np.pi / 2 + np.arange(2 * k) * np.pi / k
+    radius = np.where(np.arange(2 * k) % 2 == 0, outer, inner)
+    return np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
+
+
+def smooth_shapes():
+    t = 2 * np.pi * np.arange(400) / 400
+    ellipse = np.stack([np.cos(t), 0.4 * np.sin(t)], axis=1)
+    c, s = np.cos(t), np.sin(t)
+    superellipse = np.stack([np.sign(c) * np.abs(c) ** 0.5, np.sign(s) * np.abs(s) ** 0.5], 1)
+    return [("ellipse", ellipse), ("superellipse_4", superellipse)]
+
+
+def traced_disk(radius=40.5):
+    """The outline of a disk's pixels (a 4-connected staircase) through the pixel-edge
+    midpoints, as a marching-squares contour of a binary image gives it."""
+    contourpy = pytest.importorskip("contourpy")
+    size = int(2 * radius) + 8
+    y, x = np.mgrid[:size, :size]
+    image = ((x - size / 2) ** 2 + (y - size / 2) ** 2 <= radius**2).astype(float)
+    lines = contourpy.contour_generator(z=image).lines(0.5)
+    return max(lines, key=len)[:-1]
+
+
+def distance_to_curve(points, curve):
+    """Each point's distance to the closed polyline `curve` (dense: within its chords'
+    sagitta of the curve)."""
+    a, b = curve, np.roll(curve, -1, axis=0)
+    ab = b - a
+    t = np.clip(np.einsum("pij,ij->pi", points[:, None] - a, ab)
+                / np.maximum(np.sum(ab**2, 1), 1e-300), 0, 1)
+    foot = a + t[..., None] * ab
+    return np.min(np.linalg.norm(points[:, None] - foot, axis=2), axis=1)
+
+
+def test_find_corners_on_a_star_and_a_square():
+    V = star()
+    samples = polygon_samples(V, 400, phase=0.013)
+    found = fitting.find_corners(samples)
+    assert len(found) == 10
+    # Each vertex's nearest sample is a corner (samples miss the vertices by < spacing).
+    nearest = np.argmin(np.linalg.norm(samples[:, None] - V[None], axis=2), axis=0)
+    assert sorted(found.tolist()) == sorted(nearest.tolist())
+    square = polygon_samples([[0, 0], [1, 0], [1, 1], [0, 1]], 97, phase=0.3)
+    assert len(fitting.find_corners(square)) == 4
+    # A 40-degree turn is not a corner at the default 50, and is at 30.
+    bent = polygon_samples([[0, 0], [1, 0], [1 + np.cos(0.7), np.sin(0.7)], [0, 2]], 300, 0.1)
+    assert len(fitting.find_corners(bent, angle=30)) == 4
+
+
+@pytest.mark.parametrize("name, samples", smooth_shapes())
+def test_no_corners_on_smooth_shapes(name, samples):
+    assert fitting.find_corners(samples).size == 0
+
+
+def test_no_corners_on_a_pixel_staircase():
+    """A traced disk of radius 40.5 px: its staircase turns 90 degrees at every step,
+    but over 3 sample spacings it averages out."""
+    assert fitting.find_corners(traced_disk()).size == 0
+
+
+def test_star_corners_are_exact_points_of_the_fitted_curve():
+    """n = 20 for the 10 corners: two spans per edge, and a clamped cubic piece through
+    three collinear control points is the straight edge, so the star is representable
+    exactly. The fitted curve passes through every vertex to the solver's tolerance,
+    the creased control points are the vertices, and the smooth fit misses them."""
+    V = star()
+    samples = polygon_samples(V, 400, phase=0.013)
+    smooth = fitting.fit(samples, js.CubicBSpline(), 20)
+    result = fitting.fit(samples, js.CubicBSpline(), 20, corners="auto")
+    assert bool(result.converged)
+    creased = np.asarray(result.control_points)[np.asarray(result.creases)]
+    assert creased.shape == (10, 2)
+    # The fitted curve through each vertex (the creased points are curve points).
+    size = np.ptp(V, axis=0).max()
+    vertex_error = distance_to_curve(V, np.asarray(result.curve))
+    assert vertex_error.max() < 1e-6 * size
+    assert distance_to_curve(V, creased).max() < 1e-6 * size
+    # Every sample on the curve.
+    assert float(result.rms_target_to_curve) < 1e-6 * size
+    assert distance_to_curve(V, np.asarray(smooth.curve)).max() > 1e-3 * size
+
+
+def test_corners_do_not_depend_on_where_the_samples_start():
+    """The same star samples, cyclically shifted and reversed: the same curve."""
+    samples = polygon_samples(star(), 400, phase=0.013)
+    first = fitting.fit(samples, js.CubicBSpline(), 20, corners="auto")
+    for variant in (np.roll(samples, 137, axis=0), samples[::-1]):
+        other = fitting.fit(variant, js.CubicBSpline(), 20, corners="auto")
+        np.testing.assert_allclose(np.asarray(other.curve), np.asarray(first.curve),
+                                   atol=1e-8)
+
+
+def test_refine_with_the_creases_gives_the_fitted_curve():
+    """`result.creases` as `refine(creases=...)` indices: the fitted polygon refined and
+    pushed to its limit piece by piece is `result.curve` (the fit's own samples)."""
+    samples = polygon_samples(star(), 400, phase=0.2)
+    result = fitting.fit(samples, js.FourPoint(), 20, corners="auto")
+    creases = np.flatnonzero(np.asarray(result.creases)).tolist()
+    P = np.asarray(result.control_points)
+    n, rows = len(P), 2**result.levels
+    pieces = []
+    for k, c in enumerate(creases):
+        end = creases[k + 1] if k + 1 < len(creases) else creases[0] + n
+        piece = P[np.arange(c, end + 1) % n]
+        refined = js.refine(piece, js.FourPoint(), result.levels, boundary="clamped")
+        pieces.append(np.asarray(js.limit_points(refined, js.FourPoint(),
+                                                 boundary="clamped"))[:-1])
+    curve = np.roll(np.concatenate(pieces), creases[0] * rows, axis=0)
+    np.testing.assert_allclose(curve, np.asarray(result.curve), atol=1e-12)
+
+
+def test_corners_compile_once():
+    """Stars of other sizes and phases (other corners) reuse the compiled programs."""
+    from helpers import CompileCounter
+
+    fitting.fit(polygon_samples(star(), 400, 0.01), js.CubicBSpline(), 20, corners="auto")
+    with CompileCounter() as compiled:
+        for inner, phase in ((0.3, 0.2), (0.6, 0.7)):
+            samples = polygon_samples(star(inner=inner), 400, phase)
+            fitting.fit(samples, js.CubicBSpline(), 20, corners="auto")
+        square = polygon_samples([[0, 0], [2, 0], [2, 1], [0, 1]], 400, 0.05)
+        fitting.fit(square, js.CubicBSpline(), 20, corners="auto")
+    assert compiled.count == 0
+
+
+def test_no_corners_found_is_the_smooth_fit():
+    name, samples = smooth_shapes()[0]
+    a = fitting.fit(samples, js.CubicBSpline(), 12, corners="auto")
+    b = fitting.fit(samples, js.CubicBSpline(), 12)
+    assert a.creases is None
+    np.testing.assert_array_equal(np.asarray(a.control_points), np.asarray(b.control_points))
+
+
+def test_corner_errors():
+    samples = polygon_samples(star(), 200, 0.1)
+    with pytest.raises(ValueError, match="boundary='closed'"):
+        fitting.fit(samples, js.CubicBSpline(), 20, boundary="open", corners="auto")
+    with pytest.raises(ValueError, match="primal"):
+        fitting.fit(samples, js.Chaikin(), 20, corners="auto")
+    with pytest.raises(ValueError, match="at least as many control points as corners"):
+        fitting.fit(samples, js.CubicBSpline(), 4, corners=[0, 20, 40, 60, 80])
+    with pytest.raises(ValueError, match="None, 'auto' or sample indices"):
+        fitting.fit(samples, js.CubicBSpline(), 20, corners="yes")
+    with pytest.raises(ValueError, match="angle"):
+        fitting.find_corners(samples, angle=200)
+    with pytest.raises(ValueError, match="traced"):
+        jax.jit(lambda t: fitting.fit(t, js.CubicBSpline(), 20, corners="auto").rms)(samples)
