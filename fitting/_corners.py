@@ -67,6 +67,11 @@ def find_corners(
         )
     if not np.all(np.isfinite(points)):
         raise ValueError("`find_corners(samples=...)` has non-finite values (NaN or inf).")
+    # In units of the largest offset from the bounding box's centre: squared chords of
+    # coordinates near 1e300 would overflow (angles and spacings are scale-free).
+    offsets = points - (points.min(axis=0) / 2 + points.max(axis=0) / 2)
+    unit = np.max(np.abs(offsets))
+    points = offsets / (unit if unit > 0 else 1.0)
     angle = float(angle)
     if not 0.0 < angle < 180.0:
         raise ValueError(f"`find_corners(angle=...)` must be in (0, 180) degrees; got {angle}.")
@@ -77,9 +82,12 @@ def find_corners(
     s = np.concatenate([[0.0], np.cumsum(gaps)[:-1]])
     if scale is None:
         scale = CORNER_SPACINGS * float(np.median(gaps[gaps > 0]))
-    scale = float(scale)
-    if not (np.isfinite(scale) and scale > 0):
-        raise ValueError(f"`find_corners(scale=...)` must be a positive length; got {scale}.")
+    else:
+        scale = float(scale)
+        if not (np.isfinite(scale) and scale > 0):
+            raise ValueError(
+                f"`find_corners(scale=...)` must be a positive length; got {scale}.")
+        scale = scale / (unit if unit > 0 else 1.0)
     scale = min(scale, total / 4)  # chords longer than a quarter turn measure nothing local
     turning = _turning(points, s, total, scale)
     candidates = np.nonzero(turning >= np.radians(angle))[0]

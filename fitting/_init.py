@@ -109,9 +109,11 @@ def corner_creases(
     sample starts exactly at its crease. Traceable: the corners are data.
     """
     m = target.shape[0]
-    fractions = chord_fractions(target, True)
     first = jnp.argmax(corners)
-    u = jnp.mod(fractions - fractions[first], 1.0)
+    # Chord-length fractions counted from the first corner (rolled there first: a
+    # difference of two cumulative sums is not exactly 0 at the corner under jit, and a
+    # wrap of -1e-17 to 1 put it last).
+    u = jnp.roll(chord_fractions(jnp.roll(target, -first, axis=0), True), first)
     order = jnp.argsort(jnp.where(corners, u, jnp.inf))  # the corners first, in turn
     count = jnp.sum(corners)
     j = jnp.arange(m)

@@ -105,7 +105,6 @@ class FitResult(eqx.Module):
 
     control_points: Float[Array, "*batch n d"]
     scheme: js.AbstractCurveScheme
-    creases: Bool[Array, "*batch n"] | None
     curve: Float[Array, "*batch N d"]
     rms: Float[Array, "*batch"]
     max_error: Float[Array, "*batch"]
@@ -118,6 +117,7 @@ class FitResult(eqx.Module):
     newton_step: Float[Array, "*batch"]
     boundary: str = eqx.field(static=True)
     levels: int = eqx.field(static=True)
+    creases: Bool[Array, "*batch n"] | None = None
 
     @property
     def converged(self) -> Array:

@@ -453,6 +453,10 @@ def _fit(args) -> int:
         + (" (scheme parameters fitted too)" if args.fit_params else "")
     )
     results, sizes, pinned = [], [], []
+    # Corners need a primal scheme with a crease (clamped end) rule.
+    creasable = scheme.is_primal and scheme.clamp_ghost is not None
+    if args.corners == "auto" and not creasable:
+        print(f"  (no corners: {args.scheme} has no crease rule for them; see --corners)")
     # Every contour padded to the longest one's sample count: one compiled program.
     pad_to = max(len(outline.points) for outline in outlines)
     for i, outline in enumerate(outlines):
@@ -465,12 +469,16 @@ def _fit(args) -> int:
         )
         sys.stdout.flush()  # before the progress line on stderr
         start, compiles = time.perf_counter(), _compilations()
+        corners = "auto" if args.corners == "auto" and creasable and boundary == "closed" else None
         result = fitting.fit(
             outline.points, scheme, args.n, levels=args.levels, boundary=boundary,
             pin_ends=pin_ends, fit_params=bool(args.fit_params), max_steps=args.max_steps,
             progress=False if args.quiet else "time", on_failure="ignore", pad_to=pad_to,
+            corners=corners,
         )
         result = jax.block_until_ready(result)
+        if result.creases is not None:
+            print(f"  corners    {int(np.sum(result.creases))} (creased control points)")
         elapsed = time.perf_counter() - start
         if args.fit_params:
             print(f"  scheme     {_scheme_text(args.scheme, result.scheme)}")
@@ -507,6 +515,8 @@ def _fit(args) -> int:
             path, [np.asarray(r.control_points) for r in results],
             [r.scheme for r in results], boundary=[r.boundary for r in results],
             groups=_shape_groups(outlines), like=_page_source(args),
+            creases=[None if r.creases is None else np.flatnonzero(np.asarray(r.creases))
+                     .tolist() for r in results],
         )
         kind = "exact Bezier segments" if exact else "polylines of exact limit points"
         print(f"wrote {path} ({kind}, {_shapes(outlines)})")
@@ -601,6 +611,11 @@ def _add_fit(sub):
     fit.add_argument("--pin-ends", action="store_true",
                      help="open and clamped contours start at their first sample and end "
                      "at their last, exactly (closed contours have no ends)")
+    fit.add_argument("--corners", choices=["auto", "none"], default="auto",
+                     help="auto (default): corners found in closed contours (turning by 50 "
+                     "degrees or more over 3 sample spacings) become creased control points, "
+                     "which the curve passes through with a corner; none: smooth curves. "
+                     "Primal schemes (cubic-bspline, four-point, split-tweak, jarek)")
     fit.add_argument("--max-steps", type=int, default=500,
                      help="solver step limit per contour (default: 500)")
     fit.add_argument("--output", "-o",

@@ -408,6 +408,7 @@ def _limit_curve(
     *,
     boundary: str = "closed",
     count: int = 4096,
+    creases=None,
 ) -> Float[np.ndarray, "N 2"]:
     """At least `count` exact points of a control polygon's limit curve, in order.
 
@@ -421,6 +422,8 @@ def _limit_curve(
     k = 0
     while refined_count(len(points), scheme, k, boundary) < count:
         k += 1
+    if creases is not None and len(creases):  # a closed curve's creased control points
+        return np.asarray(limit_curve(points, scheme, k, creases=list(creases)), np.float64)
     try:
         return np.asarray(limit_curve(points, scheme, k, boundary=boundary), np.float64)
     except ValueError:  # no limit stencil (a scheme proven not to converge)
@@ -469,8 +472,11 @@ def plot_fit(
     target = _polygon(target, "target")
     boundary = getattr(result, "boundary", "closed")
     closed = boundary == "closed"
+    creases = getattr(result, "creases", None)
+    if creases is not None and np.asarray(creases).dtype == bool:
+        creases = np.flatnonzero(np.asarray(creases))
     curve = _limit_curve(control, result.scheme, boundary=boundary,
-                        count=max(16384, 16 * len(target)))
+                        count=max(16384, 16 * len(target)), creases=creases)
     distances = _segment_distances(target, curve, closed)
     ax = _new_axes(ax, figsize=(6.0, 5.0))
     # The samples first, small, and the curve and polygon over them: a good fit's curve

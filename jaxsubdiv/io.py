@@ -21,6 +21,7 @@ Coordinates are y-up everywhere; SVG and PNG (y-down) are flipped on the way in 
 """
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Literal
 
@@ -44,7 +45,12 @@ from ._io.common import (
     make_outline,
     resample_polyline,
 )
-from ._io.curve import bezier_segments, bspline_degree, dense_curve
+from ._io.curve import (
+    bezier_segments,
+    bspline_degree,
+    creased_bezier_segments,
+    dense_curve,
+)
 from ._io.points import (
     read_json,
     read_npy,
@@ -297,6 +303,7 @@ def write_curve_svg(
     levels: int | None = None,
     groups: list[int | None] | None = None,
     like: str | os.PathLike | None = None,
+    creases: Sequence[int] | list[Sequence[int] | None] | None = None,
 ) -> bool:
     """Write the limit curve of a control polygon, or of several, as one SVG file.
 
@@ -329,6 +336,10 @@ def write_curve_svg(
       page (`width`, `height`, `viewBox`; a PNG's pixels) and puts the curves in its
       coordinates, so that they lie exactly over the input in a vector editor.
       Default: a page fitted around the curves.
+    - `creases`: a closed curve's creased control points (indices, as for
+      [`jaxsubdiv.refine`][]; a `fitting.FitResult`'s `np.flatnonzero(result.creases)`),
+      or a list of them (or None) per polygon: the curve is cut there into clamped
+      pieces, exact Bezier segments for uniform B-splines as above.
 
     **Returns:** True when the file holds the exact curves (Bezier segments), False
     when some curve is a polyline.
@@ -349,6 +360,17 @@ def write_curve_svg(
 
     schemes = per_curve(scheme, "scheme", "scheme")
     boundaries = per_curve(boundary, "boundary", "boundary")
+    if creases is None:
+        crease_lists = [None] * count
+    elif all(isinstance(c, (int, np.integer)) for c in creases):  # one polygon's indices
+        if count != 1:
+            raise ValueError(
+                f"`creases` must be a list of one index list (or None) per control polygon "
+                f"({count}), got one list of indices."
+            )
+        crease_lists = [list(creases)]
+    else:
+        crease_lists = per_curve(list(creases), "creases", "list of indices")
     if groups is None:
         groups = [0] * count
     elif not isinstance(groups, (list, tuple)) or len(groups) != count:
@@ -359,21 +381,25 @@ def write_curve_svg(
         if g is not None and (isinstance(g, bool) or not isinstance(g, (int, np.integer))):
             raise TypeError(f"`groups` must hold ints or None, got {g!r}.")
     subpaths, exact = [], True
-    for i, (polygon, scheme, boundary, group) in enumerate(
-        zip(polygons, schemes, boundaries, groups)
+    for i, (polygon, scheme, boundary, group, creased) in enumerate(
+        zip(polygons, schemes, boundaries, groups, crease_lists)
     ):
         what = "the control points" if count == 1 else f"control polygon {i}"
         points = make_outline(path, polygon, False, what).points
         boundary = _check_boundary(boundary, scheme)
         closed = boundary == "closed"
+        creased = None if creased is None or len(creased) == 0 else list(creased)
+        if creased is not None and not closed:
+            raise ValueError(f"`creases` of {what} need boundary='closed', got {boundary!r}.")
         degree = bspline_degree(scheme)
         minimum = {1: 2, 2: 3, 3: 4}.get(degree, 0) if boundary == "open" else 2
         if degree is not None and len(points) >= minimum:
             with np.errstate(over="ignore", invalid="ignore"):  # checked by write_drawing
-                beziers = bezier_segments(points, degree, boundary)
+                beziers = (bezier_segments(points, degree, boundary) if creased is None
+                           else creased_bezier_segments(points, degree, creased))
             subpaths.append(bezier_subpath(beziers, closed, group))
         else:
-            curve = dense_curve(points, scheme, boundary, levels)
+            curve = dense_curve(points, scheme, boundary, levels, creased)
             subpaths.append(polyline_subpath(curve, closed, group))
             exact = False
     write_drawing(path, subpaths, like, "the curve")

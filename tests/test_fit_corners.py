@@ -6,6 +6,8 @@ control points, and shapes without corners (ellipse, superellipse, a traced disk
 staircase) on which no corner may be found.
 """
 
+from pathlib import Path
+
 import jax
 import numpy as np
 import pytest
@@ -175,3 +177,33 @@ def test_corner_errors():
         fitting.find_corners(samples, angle=200)
     with pytest.raises(ValueError, match="traced"):
         jax.jit(lambda t: fitting.fit(t, js.CubicBSpline(), 20, corners="auto").rms)(samples)
+
+
+def test_creases_share_the_control_points_by_arc_length():
+    """matplotlib's home icon, inner outline (5 corners found): the control points
+    between consecutive creases are n times the arc-length share of the outline
+    between their corner samples, to within one (rounding). A regression: under jit
+    the first corner's own fraction came out as -1e-17, wrapped to 1, and the creases
+    were allocated from the wrong corner (gaps 15, 2, 3, 11, 1 against shares of 12.3,
+    2.8, 1.8, 2.7, 12.3)."""
+    import matplotlib
+
+    import jaxsubdiv.io as jio
+
+    path = Path(matplotlib.get_data_path()) / "images" / "home.svg"
+    samples = np.asarray(jio.read_outlines(path)[0].points)
+    corners = np.sort(fitting.find_corners(samples))
+    assert len(corners) >= 4
+    n = 32
+    result = fitting.fit(samples, js.CubicBSpline(), n, corners=list(corners), max_steps=2,
+                         on_failure="ignore")
+    creases = np.flatnonzero(np.asarray(result.creases))
+    gaps = np.diff(np.append(creases, creases[0] + n))
+    chords = np.linalg.norm(np.roll(samples, -1, axis=0) - samples, axis=1)
+    s = np.concatenate([[0.0], np.cumsum(chords)])
+    arcs = np.diff(np.append(s[corners], s[corners[0]] + s[-1])) / s[-1] * n
+    # The same cyclic sequence of pieces, in either direction (the fit orders the
+    # samples counter-clockwise), from some corner.
+    matches = [np.all(np.abs(np.roll(g, k) - arcs) <= 1.0)
+               for g in (gaps, gaps[::-1]) for k in range(len(gaps))]
+    assert any(matches), (gaps, arcs)

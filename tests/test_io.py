@@ -5,6 +5,7 @@ the Bernstein form of a Bezier curve, SVG's own definitions of S, T and transfor
 the B-spline parametrization of the limit curve, and from `jaxsubdiv.limit_points`.
 """
 
+import json
 import io
 import re
 import struct
@@ -1332,3 +1333,46 @@ def test_nesting_depths_match_the_pairwise_test():
 def test_bad_arguments_are_named(tmp_path, call, error, words):
     with pytest.raises(error, match=re.escape(words)):
         call(tmp_path)
+
+
+# --- creased curves (fits with corners, #21) -------------------------------------------
+
+
+def test_curve_svg_creased_bezier_is_the_creased_limit_curve(tmp_path):
+    """A creased closed cubic B-spline: one closed run of Bezier segments through its
+    clamped pieces, sampled at the dyadic parameters, equals `limit_curve(creases=...)`
+    (whose pieces tests/test_curve_stencil.py checks against scipy's B-spline)."""
+    k, creases = 3, [1, 4]
+    path = tmp_path / "creased.svg"
+    assert jio.write_curve_svg(path, POLYGON, js.CubicBSpline(), creases=creases) is True
+    segments, closed = _svg_beziers(path)
+    assert closed and len(segments) == len(POLYGON)
+    t = np.arange(2**k) / 2**k
+    sampled = np.concatenate([_bernstein(b, t) for b in segments])
+    limit = np.asarray(js.limit_curve(POLYGON, js.CubicBSpline(), k, creases=creases))
+    # The path starts at the first crease: control point 1's sample.
+    size = np.ptp(POLYGON, axis=0).max()
+    np.testing.assert_allclose(np.roll(limit, -creases[0] * 2**k, axis=0), sampled, rtol=0,
+                               atol=1e-9 * size)
+    # Through the creased points themselves.
+    assert np.allclose(limit[np.array(creases) * 2**k], POLYGON[creases], atol=1e-12)
+
+
+def test_result_json_keeps_the_creases(tmp_path):
+    """Creases are saved (format version 2, which an older reader refuses rather than
+    drawing the curve without corners), read back, and checked."""
+    result = {"control_points": POLYGON, "scheme": js.CubicBSpline(), "boundary": "closed",
+              "creases": np.array([False, True, False, False, True] + [False] * (len(POLYGON) - 5))}
+    path = tmp_path / "creased.json"
+    jio.write_result_json(path, result)
+    data = json.loads(path.read_text())
+    assert data["version"] == 2 and data["creases"] == [1, 4]
+    assert jio.read_result_json(path).creases == (1, 4)
+    plain = tmp_path / "plain.json"
+    jio.write_result_json(plain, {"control_points": POLYGON, "scheme": js.CubicBSpline()})
+    assert json.loads(plain.read_text())["version"] == 1
+    assert jio.read_result_json(plain).creases == ()
+    data["creases"] = [1, 99]
+    path.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="creases"):
+        jio.read_result_json(path)

@@ -25,6 +25,8 @@ table's layout (`first`, `width`) depends on $n$ and $L$ only: a fit with crease
 in its data compiles once for any number and placement of them.
 """
 
+from collections.abc import Callable
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -67,14 +69,20 @@ def _concrete(scheme: AbstractCurveScheme) -> bool:
     return not any(isinstance(x, jax.core.Tracer) for x in leaves)
 
 
-def crease_reach(scheme: AbstractCurveScheme) -> int:
+#: `(scheme, n, levels, boundary, derivative, dtype) -> CurveStencil`: the library's
+#: tables (`limit._stencil`), passed in so that this module does not import `limit`.
+Tables = Callable[..., CurveStencil]
+
+
+def crease_reach(scheme: AbstractCurveScheme, tables: Tables) -> int:
     r"""How many spans from a clamped end its rules change the limit curve's samples:
     the smallest integer $\rho$ such that every sample at least $\rho$ spans from the
-    end of a clamped piece equals the closed curve's. Measured on the host (at
-    construction time, also inside a trace), from a piece of 12 spans at 5 levels, at
-    the scheme's values, or at its type's defaults when they are traced: the reach
-    follows from the mask's support, not its values (the same at every four-point w and
-    split-and-tweak t tried, `tests/test_curve_stencil.py`). Cached.
+    end of a clamped piece equals the closed curve's. Measured on the host (one small
+    compiled program, run at once, also inside a caller's trace), from a piece of 12
+    spans at 5 levels, at the scheme's values, or at its type's defaults when they are
+    traced: the reach follows from the mask's support, not its values (the same at every
+    four-point w and split-and-tweak t tried; `tests/test_curve_stencil.py`
+    differentiates a table built with w traced). Cached.
 
     Raises `ValueError` for schemes whose clamped pieces are not the closed curve's
     refinement away from their ends (nothing to gather then)."""
@@ -91,23 +99,31 @@ def crease_reach(scheme: AbstractCurveScheme) -> int:
                     "default values to measure at. Build the table outside the trace."
                 ) from None
         leaves, structure = jax.tree.flatten(scheme)
-        key = (structure, tuple(np.asarray(x).tobytes() for x in leaves))
-        if key not in _REACHES:
-            _REACHES[key] = _measured_reach(scheme)
+        leaves = [np.asarray(x) for x in leaves]
+    key = (structure, tuple(x.tobytes() for x in leaves))
+    if key not in _REACHES:
+        _REACHES[key] = _measured_reach(leaves, structure, tables, type(scheme).__name__)
     return _REACHES[key]
 
 
 _REACHES: dict = {}
 
 
-def _measured_reach(scheme) -> int:
-    from .limit import _stencil  # noqa: PLC0415 (limit imports this module)
-
+def _measured_reach(leaves, structure, tables: Tables, name: str) -> int:
     levels, spans, rows = _REACH_LEVELS, _REACH_SPANS, 2**_REACH_LEVELS
-    clamped = np.asarray(_stencil(scheme, spans + 1, levels, "clamped", 0, np.float64).dense())
-    # A closed polygon twice as long, so that its rows over the piece's span read the
-    # infinite refinement's windows (the ones near P_0 read P_{-1}, ... as P_{2s+1}, ...).
-    closed = np.asarray(_stencil(scheme, 2 * spans + 2, levels, "closed", 0, np.float64).dense())
+
+    def dense(leaves):
+        scheme = jax.tree.unflatten(structure, leaves)
+        # A closed polygon twice as long, so that its rows over the piece's span read
+        # the infinite refinement's windows (those near P_0 read P_{-1}, ... as
+        # P_{2s+1}, ...).
+        return (tables(scheme, spans + 1, levels, "clamped", 0, np.float64).dense(),
+                tables(scheme, 2 * spans + 2, levels, "closed", 0, np.float64).dense())
+
+    # Compiled ahead and called with host arrays: it runs now, also when the caller is
+    # tracing (a jitted call would be staged into the caller's program).
+    clamped, closed = jax.jit(dense).lower(leaves).compile()(leaves)
+    clamped, closed = np.asarray(clamped), np.asarray(closed)
     periodic = closed[: clamped.shape[0]]
     clamped = np.concatenate([clamped, np.zeros((clamped.shape[0], spans + 1))], axis=1)
     scale = np.max(np.abs(periodic))
@@ -121,7 +137,7 @@ def _measured_reach(scheme) -> int:
     reach = max(-(-from_left // rows), -(-from_right // rows), 1)
     if 2 * reach >= spans:
         raise ValueError(
-            f"{type(scheme).__name__}'s clamped pieces differ from its closed curve "
+            f"{name}'s clamped pieces differ from its closed curve "
             f"farther than {spans // 2} spans from their ends, so their creases cannot be "
             "gathered from a library of rows. Pass the creases to "
             "`jaxsubdiv.refine(creases=...)` instead."
@@ -147,12 +163,12 @@ def creased_stencil(
     creases: Bool[Array, " n"],
     reach: int,
     dtype,
+    _stencil: Tables,
 ) -> CurveStencil:
     """The closed curve's limit table with creases at the control points where the mask
     `creases` is True (traceable; see the module's docstring). `reach` from
-    `crease_reach`. No checks: `jaxsubdiv.curve_stencil(creases=...)` makes them."""
-    from .limit import _stencil  # noqa: PLC0415 (limit imports this module)
-
+    `crease_reach`; `_stencil` the library's tables (`Tables`). No checks:
+    `jaxsubdiv.curve_stencil(creases=...)` makes them."""
     rows = 2**levels
     spans = list(range(1, 2 * reach)) + [2 * reach]
     pieces = [_stencil(scheme, D + 1, levels, "clamped", 0, dtype).dense() for D in spans]

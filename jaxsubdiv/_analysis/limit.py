@@ -14,6 +14,7 @@ from typing import Literal
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._curve_stencil import CurveStencil, build as build_stencil, vertex_offsets
@@ -332,7 +333,7 @@ def curve_stencil(
     dtype = scheme.mask().dtype if dtype is None else jnp.dtype(dtype)
     if creases is not None:
         mask, reach = _check_creases_mask(scheme, n, boundary, derivative, creases)
-        return _creased_jit(scheme, n, levels, mask, reach, dtype)
+        return _creased_jit(scheme, n, levels, mask, reach, dtype, _stencil)
     return _stencil_jit(scheme, n, levels, boundary, derivative, dtype)
 
 
@@ -353,7 +354,7 @@ def _check_creases_mask(scheme, n, boundary, derivative, creases):
             f"per control point); got dtype {mask.dtype}, shape {mask.shape}. For indices "
             "`idx`, pass `jnp.zeros(n, bool).at[idx].set(True)`."
         )
-    return mask, crease_reach(scheme)
+    return mask, crease_reach(scheme, _stencil_jit)
 
 
 def _check_stencil_arguments(scheme, n, levels, boundary, derivative, caller):
@@ -421,6 +422,7 @@ def limit_curve(
     *,
     boundary: Boundary = "closed",
     derivative: int = 0,
+    creases=None,
     memory_budget: int = DEFAULT_MEMORY_BUDGET,
 ) -> Float[Array, "*batch N d"]:
     r"""Exact points (or derivatives) of the limit curve at the dyadic parameters of
@@ -454,6 +456,11 @@ def limit_curve(
       on closed curves.
     - `boundary`: `"closed"`, `"open"` or `"clamped"` (keyword only).
     - `derivative`: 0, 1 or 2 (keyword only).
+    - `creases`: a closed curve's creased control points, as indices (as for
+      `refine`) or a boolean mask `(n,)` (which may be traced; see
+      [`jaxsubdiv.curve_stencil`][]): the curve is cut there into clamped pieces and
+      passes through each with a corner, $2^L n$ samples for primal schemes. Closed
+      curves, `derivative=0`.
     - `memory_budget`: as for [`jaxsubdiv.refine`][] (default 2 GiB); the estimate adds
       the table and its gathered windows (`N x width` weights and `N x width x d`
       coordinates). Checked before anything is built.
@@ -469,10 +476,34 @@ def limit_curve(
     n, d = points.shape[-2:]
     batch, itemsize = math.prod(points.shape[:-2]), jnp.dtype(points.dtype).itemsize
     extra = 0
+    if creases is not None:
+        creases = _crease_mask(creases, n)
     if levels <= 64:  # beyond, `_check_memory` refuses from the bit length alone
-        width = scheme.mask_length + 2  # a bound of the table's width
+        # A bound of the table's width (creased rows read up to a whole piece each side).
+        width = (scheme.mask_length + 2) * (1 if creases is None else 4)
         count = _count(n, scheme, levels, boundary, ())
         extra = count * width * (itemsize + 8 + max(1, batch * d) * itemsize)
     _check_memory(n, d, batch, itemsize, scheme, levels, boundary, (),
                   checked_budget(memory_budget), extra=extra, caller="limit_curve")
+    if creases is not None:
+        mask, reach = _check_creases_mask(scheme, n, boundary, derivative, creases)
+        return _creased_jit(scheme, n, levels, mask, reach, points.dtype, _stencil).apply(points)
     return _limit_curve_jit(points, scheme, levels, boundary, derivative)
+
+
+def _crease_mask(creases, n: int):
+    """Crease indices (a sequence of ints, as `refine` takes them) as a boolean mask;
+    a boolean array passes unchanged (it may be traced)."""
+    if hasattr(creases, "dtype") and creases.dtype == bool:
+        return creases
+    index = np.asarray(creases)
+    if index.ndim != 1 or (index.size and not np.issubdtype(index.dtype, np.integer)):
+        raise ValueError(
+            f"`creases` must be control point indices or a boolean mask of shape ({n},); got "
+            f"{creases!r}."
+        )
+    if np.any((index < 0) | (index >= n)):
+        raise ValueError(f"`creases` must be indices in [0, {n - 1}], got {index.tolist()}.")
+    mask = np.zeros(n, bool)
+    mask[index] = True
+    return jnp.asarray(mask)

@@ -81,14 +81,35 @@ def bezier_segments(points: np.ndarray, degree: int, boundary: str) -> np.ndarra
     return np.stack([knots, (2 * cur + nxt) / 3, (cur + 2 * nxt) / 3, ends], axis=1)
 
 
+def crease_pieces(points: np.ndarray, creases) -> list[np.ndarray]:
+    """A creased closed polygon's clamped pieces, from each crease to the next (the
+    last wrapping around), as `refine(creases=...)` cuts it."""
+    cuts = sorted(int(c) for c in creases)
+    n = len(points)
+    ends = cuts[1:] + [cuts[0] + n]
+    return [points[np.arange(c, e + 1) % n] for c, e in zip(cuts, ends)]
+
+
+def creased_bezier_segments(points: np.ndarray, degree: int, creases) -> np.ndarray:
+    """`bezier_segments` of a creased closed uniform B-spline: its clamped pieces'
+    segments, one closed run from the first crease."""
+    return np.concatenate([bezier_segments(piece, degree, "clamped")
+                           for piece in crease_pieces(points, creases)])
+
+
 def dense_curve(
-    points: np.ndarray, scheme: AbstractCurveScheme, boundary: str, levels: int | None
+    points: np.ndarray, scheme: AbstractCurveScheme, boundary: str, levels: int | None,
+    creases=None,
 ) -> np.ndarray:
     """Exact limit points at the dyadic parameters of `levels` levels
     ([`jaxsubdiv.limit_curve`][]; default: enough for about 2048 points); the refined
-    polygon when the scheme has no limit stencil."""
+    polygon when the scheme has no limit stencil. `creases`: a closed curve's creased
+    control points (indices), or None."""
     if levels is None:
         levels = max(1, math.ceil(math.log2(2048 / len(points))))
+    if creases is not None and len(creases):
+        return np.asarray(limit_curve(points, scheme, levels, creases=list(creases)),
+                          np.float64)
     try:
         return np.asarray(limit_curve(points, scheme, levels, boundary=boundary), np.float64)
     except ValueError:  # no limit stencil (a scheme proven not to converge)

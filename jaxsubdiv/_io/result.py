@@ -41,6 +41,8 @@ class SavedResult:
     - `control_points`: the control polygon, a float64 NumPy array `(n, d)`.
     - `boundary`: `"closed"`, `"open"` or `"clamped"`.
     - `levels`: refinement levels used for the curve, or None.
+    - `creases`: a closed curve's creased control points (indices, as for
+      [`jaxsubdiv.refine`][]; a fit with corners), else `()`.
     - `errors`: the saved error measures (`rms`, `max_error`, ...) by name.
     - `info`: everything else that was saved (solver status, the run's options, ...).
     """
@@ -51,6 +53,7 @@ class SavedResult:
     levels: int | None
     errors: dict
     info: dict
+    creases: tuple[int, ...] = ()
 
 
 def scheme_to_json(scheme: AbstractCurveScheme) -> dict:
@@ -158,6 +161,14 @@ def write_result_json(path, result, *, info: dict | None = None) -> None:
     levels = get("levels")
     data["levels"] = None if levels is None else int(levels)
     data["control_points"] = points.tolist()
+    creases = get("creases")
+    if creases is not None:
+        creases = np.asarray(creases)
+        index = np.flatnonzero(creases) if creases.dtype == bool else creases.reshape(-1)
+        if index.size:
+            # Version 2: a reader of version 1 would draw the curve without its corners.
+            data["version"] = 2
+            data["creases"] = [int(i) for i in index]
     errors = get("errors") or {}
     errors = {k: float(_scalar(v, k)) for k, v in dict(errors).items()}
     for name in _ERRORS:
@@ -205,10 +216,11 @@ def read_result_json(path) -> SavedResult:
     data = load_json(path)
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise fail(path, f'is not a jaxsubdiv result file (no "format": "{FORMAT}").')
-    if data.get("version") != VERSION:
+    if data.get("version") not in (VERSION, 2):
         raise fail(
             path,
-            f"has result format version {data.get('version')!r}; this jaxsubdiv reads {VERSION}.",
+            f"has result format version {data.get('version')!r}; this jaxsubdiv reads "
+            f"{VERSION} and 2.",
         )
     boundary = data.get("boundary", "closed")
     if boundary not in BOUNDARIES:
@@ -225,11 +237,19 @@ def read_result_json(path) -> SavedResult:
     info = data.get("info", {})
     if not isinstance(info, dict):
         raise fail(path, '"info" must be an object {"name": value, ...}.')
+    points = _control_points(path, data.get("control_points"))
+    creases = data.get("creases", [])
+    if (not isinstance(creases, list) or not all(
+            isinstance(c, int) and not isinstance(c, bool) and 0 <= c < len(points)
+            for c in creases) or (creases and boundary != "closed")):
+        raise fail(path, f'"creases" must be a list of control point indices in '
+                   f"[0, {len(points) - 1}] of a closed curve, got {creases!r}.")
     return SavedResult(
         scheme=scheme_from_json(data.get("scheme"), path),
-        control_points=_control_points(path, data.get("control_points")),
+        control_points=points,
         boundary=boundary,
         levels=levels,
         errors={k: (math.nan if v is None else float(v)) for k, v in errors.items()},
         info=info,
+        creases=tuple(creases),
     )
