@@ -5,8 +5,8 @@ the Bernstein form of a Bezier curve, SVG's own definitions of S, T and transfor
 the B-spline parametrization of the limit curve, and from `jaxsubdiv.limit_points`.
 """
 
-import json
 import io
+import json
 import re
 import struct
 import zipfile
