@@ -377,7 +377,7 @@ _CREASE_SCHEMES = [("cubic_bspline", js.CubicBSpline()), ("four_point", js.FourP
 _CREASE_LEVELS = 3
 
 
-def _mask(n, creases):
+def _crease_mask(n, creases):
     mask = np.zeros(n, bool)
     mask[list(creases)] = True
     return mask
@@ -430,11 +430,12 @@ def test_creased_table_equals_its_pieces(name, scheme):
     for size in sorted({n for n, _ in _CREASE_SETS}):
         sets = [c for n, c in _CREASE_SETS if n == size]
         P = rng.normal(size=(size, 2))
-        js.curve_stencil(scheme, size, _CREASE_LEVELS, creases=jnp.asarray(_mask(size, ())))
+        js.curve_stencil(scheme, size, _CREASE_LEVELS,
+                         creases=jnp.asarray(_crease_mask(size, ())))
         with CompileCounter() as compiled:
             for creases in sets:
                 table = js.curve_stencil(scheme, size, _CREASE_LEVELS,
-                                         creases=jnp.asarray(_mask(size, creases)))
+                                         creases=jnp.asarray(_crease_mask(size, creases)))
                 got = np.asarray(table.apply(P))
                 want = _pieces_by_refine(P, scheme, _CREASE_LEVELS, creases)
                 assert got.shape == want.shape
@@ -447,7 +448,7 @@ def test_creased_table_equals_its_pieces(name, scheme):
         with CompileCounter() as tables:
             for creases in sets:
                 js.curve_stencil(scheme, size, _CREASE_LEVELS,
-                                 creases=jnp.asarray(_mask(size, creases)))
+                                 creases=jnp.asarray(_crease_mask(size, creases)))
         assert tables.count == 0
         del compiled
 
@@ -455,7 +456,7 @@ def test_creased_table_equals_its_pieces(name, scheme):
 def test_creased_table_is_differentiable_in_the_parameter():
     """d/dw of a creased four-point curve against central finite differences."""
     P = np.random.default_rng(3).normal(size=(9, 2))
-    mask = jnp.asarray(_mask(9, (0, 3, 4)))
+    mask = jnp.asarray(_crease_mask(9, (0, 3, 4)))
 
     def curve(w):
         return js.curve_stencil(js.FourPoint(w), 9, 2, creases=mask).apply(P)
