@@ -197,7 +197,10 @@ def set_up(data: FitData, init, objective: Objective) -> Problem:
     scale = jnp.where(scale > 0, scale, 1.0)
     # Corners: the creased control points, and the samples' starting positions that put
     # each corner sample at its crease.
-    creases, position = (corner_creases(target, data.corners & valid, objective.n)
+    # (In units of the outline's size: chord lengths of coordinates near 1e160 would
+    # overflow, and near 1e-160 vanish.)
+    creases, position = (corner_creases((target - center) / scale, data.corners & valid,
+                                        objective.n)
                          if objective.corners else (None, None))
     # The curve's basis at the starting parameters: for the initial linear fit, for the
     # whole solve when no parameter is fitted, and for the final curve then.

@@ -12,7 +12,7 @@ angle is at least `angle` and largest within `scale` on both sides.
 import numpy as np
 from jaxtyping import ArrayLike, Float, Int
 
-from jaxsubdiv.validation import is_traced
+from jaxsubdiv.validation import check_creasable, is_traced
 
 
 #: Default smallest turning angle of a corner, in degrees.
@@ -55,7 +55,8 @@ def find_corners(
     - `scale`: the arc length over which the turning is measured, in the samples' units
       (default: 3 median sample spacings; for a traced image, a few pixels). Bends of
       radius below about `scale / radians(angle)` count as corners; corners closer than
-      `scale` to a stronger one do not.
+      `scale` to a stronger one do not. Keep it well below the shortest edge between
+      corners (a square sampled 3 times per side has no corners at this resolution).
 
     **Returns:** an integer array of sample indices, sorted by decreasing turning angle.
     """
@@ -97,12 +98,12 @@ def find_corners(
     for i in order:
         distance = np.abs(s[kept] - s[i]) if kept else np.zeros(0)
         distance = np.minimum(distance, total - distance)
-        if not np.any(distance <= scale):
+        if not np.any(distance < scale):
             kept.append(int(i))
     return np.asarray(kept, np.int64)
 
 
-def corner_flags(corners, target, scheme, n: int, boundary: str, pin_ends: bool,
+def corner_flags(corners, target, weights, scheme, n: int, boundary: str, pin_ends: bool,
                  ordered: bool) -> np.ndarray | None:
     """`fit(corners=...)` checked: per-sample flags `(m,)` of the corners, or None for
     a smooth fit (no corners asked for, or none found)."""
@@ -113,22 +114,18 @@ def corner_flags(corners, target, scheme, n: int, boundary: str, pin_ends: bool,
             f"`fit(corners=...)` needs boundary='closed'; got boundary={boundary!r}. An open "
             "stroke's corners split it into strokes: fit each with pin_ends=True."
         )
-    if not scheme.is_primal:
-        raise ValueError(
-            f"`fit(corners=...)` needs a primal scheme (CubicBSpline, FourPoint, SplitTweak, "
-            f"Jarek); {type(scheme).__name__} is dual, and its creased curve has a number of "
-            "samples that depends on the number of corners."
-        )
-    if is_traced(target):
-        raise ValueError(
-            "`fit(corners=...)` places corners on the host: the target must be concrete, "
-            "not traced (call `fit` outside `jax.jit`)."
-        )
+    check_creasable(scheme, "fit(corners=...)")
     m = target.shape[0]
     if isinstance(corners, str):
         if corners != "auto":
             raise ValueError(
                 f"`fit(corners=...)` must be None, 'auto' or sample indices; got {corners!r}."
+            )
+        if is_traced(target):
+            raise ValueError(
+                "`fit(corners='auto')` finds corners on the host: the target must be "
+                "concrete, not traced; under `jax.jit` (or `grad`) pass the corner samples' "
+                "indices (from `fitting.find_corners`) instead."
             )
         index = find_corners(np.asarray(target))
         index = index[:n]  # the strongest, at most one per control point
@@ -151,6 +148,9 @@ def corner_flags(corners, target, scheme, n: int, boundary: str, pin_ends: bool,
                 f"`fit(corners=...)` has {index.size} corners for n_control={n}: every corner "
                 "is a control point, so use at least as many control points as corners."
             )
+    if index.size and not is_traced(weights):
+        # A corner at a sample of weight 0 is not data: drop it (the fit ignores it).
+        index = index[np.asarray(weights)[index] > 0]
     if index.size == 0:
         return None
     flags = np.zeros(m, bool)

@@ -207,7 +207,7 @@ def fit(
         weights=weights, ordered=ordered, smoothing=smoothing, pad_to=pad_to,
         memory_budget=memory_budget, profile=profile, pin_ends=pin_ends,
     )
-    flags = corner_flags(corners, target, scheme, n, boundary, pin_ends, ordered)
+    flags = corner_flags(corners, target, weights, scheme, n, boundary, pin_ends, ordered)
     if flags is not None and not levels_given:
         # The creased curve is modelled by chords: their default levels (checked again).
         levels = default_levels(n, bucket(max(target.shape[0], pad_to)), False)

@@ -132,7 +132,9 @@ def corner_creases(
     end_c = jnp.where(last, n, index[jnp.minimum(piece + 1, m - 1)])
     span = end_u - start_u
     share = jnp.where(span > 0, (u - start_u) / jnp.where(span > 0, span, 1.0), 0.0)
-    return creases, start_c + (end_c - start_c) * share
+    # No corner (all at samples of weight 0): no crease, and the plain chord positions.
+    plain = chord_fractions(target, True) * n
+    return creases, jnp.where(count > 0, start_c + (end_c - start_c) * share, plain)
 
 
 def canonical_order(target: Float[Array, "m d"], count=None) -> Int[Array, " m"]:

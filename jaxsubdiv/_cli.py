@@ -402,6 +402,7 @@ def _fit(args) -> int:
     import numpy as np
 
     import fitting
+    from jaxsubdiv.validation import check_creasable
 
     js = _js()
     scheme = _scheme(args)
@@ -453,10 +454,15 @@ def _fit(args) -> int:
         + (" (scheme parameters fitted too)" if args.fit_params else "")
     )
     results, sizes, pinned = [], [], []
-    # Corners need a primal scheme with a crease (clamped end) rule.
-    creasable = scheme.is_primal and scheme.clamp_ghost is not None
-    if args.corners == "auto" and not creasable:
-        print(f"  (no corners: {args.scheme} has no crease rule for them; see --corners)")
+    # Corners need a scheme whose closed curves take creases as data.
+    try:
+        check_creasable(scheme, "fit(corners=...)")
+        creasable = True
+    except ValueError:
+        creasable = False
+        if args.corners == "auto":
+            print(f"  (smooth curves: corners need a primal scheme with a crease rule "
+                  f"sampled at its control points, which {args.scheme} is not)")
     # Every contour padded to the longest one's sample count: one compiled program.
     pad_to = max(len(outline.points) for outline in outlines)
     for i, outline in enumerate(outlines):

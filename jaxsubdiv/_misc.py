@@ -143,3 +143,32 @@ def format_bytes(size: int | float) -> str:
     if isinstance(size, int) and size.bit_length() > 1000:
         return f"about 10^{math.log10(size) - math.log10(1024**3):.0f} GiB"
     return f"{size / 1024**3:.3g} GiB"
+
+
+def check_creasable(scheme, caller: str) -> None:
+    """A clear error for schemes whose creased closed curves cannot be tables with
+    creases as data (`jaxsubdiv.curve_stencil(creases=mask)`, `fitting.fit(corners=...)`):
+    those without a clamped end rule, dual ones, and primal ones whose samples are not
+    at their control points (`center` not 0: odd `LaneRiesenfeld`, whose clamped
+    pieces are shifted against its closed curve)."""
+    if scheme.clamp_ghost is None:
+        raise ValueError(
+            f"`{caller}`: {type(scheme).__name__} has no clamped end rule, which is what a "
+            "crease is (the curve is cut there into clamped pieces); use a scheme with "
+            "one, such as CubicBSpline or FourPoint."
+        )
+    if not scheme.is_primal:
+        raise ValueError(
+            f"`{caller}`: creases as a mask need a primal scheme (one that keeps a point "
+            f"at every control point, such as CubicBSpline, FourPoint or SplitTweak); "
+            f"{type(scheme).__name__} is dual, and a dual scheme's creased curve has a "
+            "number of samples that depends on how many creases there are. Pass the "
+            "creases to `jaxsubdiv.refine(creases=...)` instead."
+        )
+    if float(scheme.center) != 0.0:
+        raise ValueError(
+            f"`{caller}`: creases as a mask need a scheme whose limit curve passes its "
+            f"samples at the control points (center 0); {type(scheme).__name__} has center "
+            f"{float(scheme.center):g}, and its clamped pieces are shifted against its "
+            "closed curve. Pass the creases to `jaxsubdiv.refine(creases=...)` instead."
+        )

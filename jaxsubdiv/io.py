@@ -360,7 +360,7 @@ def write_curve_svg(
 
     schemes = per_curve(scheme, "scheme", "scheme")
     boundaries = per_curve(boundary, "boundary", "boundary")
-    if creases is None:
+    if creases is None or len(creases) == 0:
         crease_lists = [None] * count
     elif all(isinstance(c, (int, np.integer)) for c in creases):  # one polygon's indices
         if count != 1:
@@ -428,7 +428,9 @@ def write_result_json(path: str | os.PathLike, result, *, info: dict | None = No
 
     The file records the scheme (its class and constructor arguments, e.g. the fitted
     `w`), the boundary and levels, the control points, the error measures, and the
-    solver's status, message and number of steps.
+    solver's status, message and number of steps; and a closed curve's creases (a fit
+    with corners: `creases`, indices or a boolean mask), as format version 2, which
+    readers of version 1 refuse rather than draw the curve without its corners.
 
     **Arguments:**
 

@@ -13,11 +13,14 @@ may be traced (inside `jax.jit`, `jax.grad`, ...) and are then left to the compu
 - [`jaxsubdiv.validation.min_points`][] (also `jaxsubdiv.min_points`): the fewest
   control points a scheme refines with a boundary rule.
 - [`jaxsubdiv.validation.is_traced`][]: whether a value is a JAX tracer.
+- [`jaxsubdiv.validation.check_creasable`][]: a scheme whose closed curves take creases
+  as data (`curve_stencil(creases=mask)`, `fitting.fit(corners=...)`).
 """
 
 from ._misc import (
     DEFAULT_MEMORY_BUDGET as DEFAULT_MEMORY_BUDGET,
     as_float_array as as_float_array,
+    check_creasable as check_creasable,
     checked_budget as checked_budget,
     is_traced as is_traced,
     real_array as real_array,
@@ -32,6 +35,7 @@ __all__ = [
     "DEFAULT_MEMORY_BUDGET",
     "as_float_array",
     "check_boundary",
+    "check_creasable",
     "checked_budget",
     "is_traced",
     "min_points",

@@ -432,17 +432,16 @@ def test_creased_table_equals_its_pieces(name, scheme):
         P = rng.normal(size=(size, 2))
         js.curve_stencil(scheme, size, _CREASE_LEVELS,
                          creases=jnp.asarray(_crease_mask(size, ())))
-        with CompileCounter() as compiled:
-            for creases in sets:
-                table = js.curve_stencil(scheme, size, _CREASE_LEVELS,
-                                         creases=jnp.asarray(_crease_mask(size, creases)))
-                got = np.asarray(table.apply(P))
-                want = _pieces_by_refine(P, scheme, _CREASE_LEVELS, creases)
-                assert got.shape == want.shape
-                np.testing.assert_allclose(got, want, atol=1e-12, err_msg=str(creases))
-                if isinstance(scheme, js.CubicBSpline) and creases:
-                    np.testing.assert_allclose(
-                        got, _bspline_pieces_by_scipy(P, _CREASE_LEVELS, creases), atol=1e-12)
+        for creases in sets:
+            table = js.curve_stencil(scheme, size, _CREASE_LEVELS,
+                                     creases=jnp.asarray(_crease_mask(size, creases)))
+            got = np.asarray(table.apply(P))
+            want = _pieces_by_refine(P, scheme, _CREASE_LEVELS, creases)
+            assert got.shape == want.shape
+            np.testing.assert_allclose(got, want, atol=1e-12, err_msg=str(creases))
+            if isinstance(scheme, js.CubicBSpline) and creases:
+                np.testing.assert_allclose(
+                    got, _bspline_pieces_by_scipy(P, _CREASE_LEVELS, creases), atol=1e-12)
         # The tables compiled nothing (the reference's refine and limit_points did,
         # once per piece length): count those by building the tables alone again.
         with CompileCounter() as tables:
@@ -450,7 +449,6 @@ def test_creased_table_equals_its_pieces(name, scheme):
                 js.curve_stencil(scheme, size, _CREASE_LEVELS,
                                  creases=jnp.asarray(_crease_mask(size, creases)))
         assert tables.count == 0
-        del compiled
 
 
 def test_creased_table_is_differentiable_in_the_parameter():
@@ -477,3 +475,17 @@ def test_creased_table_errors():
         js.curve_stencil(js.CubicBSpline(), 6, 2, creases=jnp.array([0, 2]))
     with pytest.raises(ValueError, match="clamped end rule"):
         js.curve_stencil(js.Daubechies(), 6, 2, creases=mask)
+    with pytest.raises(ValueError, match="center"):
+        js.curve_stencil(js.LaneRiesenfeld(3), 6, 2, creases=mask)
+    P = np.random.default_rng(0).normal(size=(6, 2))
+    plain = js.limit_curve(P, js.CubicBSpline(), 2)
+    # No creases, one as an int, and a list of bools: as refine takes them.
+    np.testing.assert_array_equal(js.limit_curve(P, js.CubicBSpline(), 2, creases=[]), plain)
+    np.testing.assert_array_equal(
+        js.limit_curve(P, js.CubicBSpline(), 2, creases=2),
+        js.limit_curve(P, js.CubicBSpline(), 2, creases=[False, False, True, False, False,
+                                                          False]))
+    with pytest.raises(ValueError, match="indices in"):
+        js.limit_curve(P, js.CubicBSpline(), 2, creases=[7])
+    with pytest.raises(ValueError, match="traced `creases`"):
+        jax.jit(lambda c: js.limit_curve(P, js.CubicBSpline(), 2, creases=c))(jnp.array([1]))

@@ -72,11 +72,19 @@ def test_find_corners_on_a_star_and_a_square():
     # Each vertex's nearest sample is a corner (samples miss the vertices by < spacing).
     nearest = np.argmin(np.linalg.norm(samples[:, None] - V[None], axis=2), axis=0)
     assert sorted(found.tolist()) == sorted(nearest.tolist())
-    square = polygon_samples([[0, 0], [1, 0], [1, 1], [0, 1]], 97, phase=0.3)
-    assert len(fitting.find_corners(square)) == 4
-    # A 40-degree turn is not a corner at the default 50, and is at 30.
-    bent = polygon_samples([[0, 0], [1, 0], [1 + np.cos(0.7), np.sin(0.7)], [0, 2]], 300, 0.1)
-    assert len(fitting.find_corners(bent, angle=30)) == 4
+    square = [[0, 0], [1, 0], [1, 1], [0, 1]]
+    samples = polygon_samples(square, 97, phase=0.3)
+    found = fitting.find_corners(samples)
+    nearest = np.argmin(np.linalg.norm(samples[:, None] - np.array(square)[None], axis=2), 0)
+    assert sorted(found.tolist()) == sorted(nearest.tolist())
+    # A square sampled from its vertices, 4 samples a side: each vertex.
+    assert sorted(fitting.find_corners(polygon_samples(square, 16)).tolist()) == [0, 4, 8, 12]
+    # A 40-degree turn (at vertex 1) is not a corner at the default 50, and is at 30.
+    bent = [[0, 0], [1, 0], [1 + np.cos(0.7), np.sin(0.7)], [0, 2]]
+    samples = polygon_samples(bent, 300, 0.1)
+    turn = np.argmin(np.linalg.norm(samples - np.array(bent[1]), axis=1))
+    assert turn not in fitting.find_corners(samples)
+    assert turn in fitting.find_corners(samples, angle=30)
 
 
 @pytest.mark.parametrize("name, samples", smooth_shapes())
@@ -110,6 +118,43 @@ def test_star_corners_are_exact_points_of_the_fitted_curve():
     # Every sample on the curve.
     assert float(result.rms_target_to_curve) < 1e-6 * size
     assert distance_to_curve(V, np.asarray(smooth.curve)).max() > 1e-3 * size
+
+
+@pytest.mark.parametrize("m, phase", [(200, 0.013), (200, 0.37), (400, 0.2)])
+def test_sparse_samples_do_not_pull_the_corners_in(m, phase):
+    """The samples next to a corner cut it; the curve-to-samples term once pulled the
+    fitted corner towards that chord (200 samples: tips 0.35% of the size inside).
+    The chords at corner samples now leave the curve free by their length."""
+    V = star()
+    result = fitting.fit(polygon_samples(V, m, phase), js.CubicBSpline(), 20, corners="auto")
+    assert bool(result.converged)
+    size = np.ptp(V, axis=0).max()
+    assert distance_to_curve(V, np.asarray(result.curve)).max() < 1e-6 * size
+
+
+@pytest.mark.parametrize("scale", [1e-150, 1e150])
+def test_corners_at_any_finite_scale(scale):
+    """The same star at 1e-150 and 1e150: the same creases and the same curve, scaled."""
+    samples = polygon_samples(star(), 200, 0.2)
+    unit = fitting.fit(samples, js.CubicBSpline(), 20, corners="auto")
+    scaled = fitting.fit(samples * scale, js.CubicBSpline(), 20, corners="auto")
+    np.testing.assert_array_equal(np.asarray(scaled.creases), np.asarray(unit.creases))
+    np.testing.assert_allclose(np.asarray(scaled.curve) / scale, np.asarray(unit.curve),
+                               atol=1e-9)
+
+
+def test_corners_at_samples_of_weight_zero_are_dropped():
+    """A corner at an ignored sample is not data: with none left, the smooth fit."""
+    V = star()
+    samples = polygon_samples(V, 200, 0.2)
+    weights = np.ones(200)
+    corners = fitting.find_corners(samples)
+    weights[corners[0]] = 0.0
+    result = fitting.fit(samples, js.CubicBSpline(), 20, corners=list(corners), weights=weights)
+    assert int(np.sum(result.creases)) == len(corners) - 1
+    only = fitting.fit(samples, js.CubicBSpline(), 20, corners=[int(corners[0])],
+                       weights=weights)
+    assert only.creases is None
 
 
 def test_corners_do_not_depend_on_where_the_samples_start():
@@ -169,6 +214,8 @@ def test_corner_errors():
         fitting.fit(samples, js.CubicBSpline(), 20, boundary="open", corners="auto")
     with pytest.raises(ValueError, match="primal"):
         fitting.fit(samples, js.Chaikin(), 20, corners="auto")
+    with pytest.raises(ValueError, match="center"):
+        fitting.fit(samples, js.LaneRiesenfeld(3), 20, corners="auto")
     with pytest.raises(ValueError, match="at least as many control points as corners"):
         fitting.fit(samples, js.CubicBSpline(), 4, corners=[0, 20, 40, 60, 80])
     with pytest.raises(ValueError, match="None, 'auto' or sample indices"):
@@ -177,6 +224,31 @@ def test_corner_errors():
         fitting.find_corners(samples, angle=200)
     with pytest.raises(ValueError, match="traced"):
         jax.jit(lambda t: fitting.fit(t, js.CubicBSpline(), 20, corners="auto").rms)(samples)
+
+
+def test_corners_with_64_bit_floats_off():
+    """JAX's default precision (float32): the reach of a crease is measured in float64
+    regardless (in float32 every row differed, and every creased call failed)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy as np, jaxsubdiv as js, fitting\n"
+        "u = (np.arange(50) + 0.3) / 50\n"
+        "square = np.concatenate([np.stack([u, 0 * u], 1), np.stack([1 + 0 * u, u], 1),\n"
+        "                         np.stack([1 - u, 1 + 0 * u], 1), np.stack([0 * u, 1 - u], 1)])\n"
+        "r = fitting.fit(square.astype(np.float32), js.CubicBSpline(), 16, corners='auto')\n"
+        "print(int(np.sum(r.creases)), r.control_points.dtype, bool(r.converged))\n"
+        "c = js.limit_curve(np.eye(5, 2, dtype=np.float32), js.FourPoint(), 2, creases=[0, 3])\n"
+        "print(c.shape, c.dtype)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=600, env={k: v for k, v in __import__("os").environ.items()
+                                            if k != "JAX_ENABLE_X64"})
+    assert done.returncode == 0, done.stderr
+    first, second = done.stdout.split("\n")[:2]
+    assert first == "4 float32 True", done.stdout
+    assert second == "(20, 2) float32", done.stdout
 
 
 def test_creases_share_the_control_points_by_arc_length():

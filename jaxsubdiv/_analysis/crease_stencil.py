@@ -33,6 +33,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from .._curve_stencil import CurveStencil, HostIndex
+from .._misc import check_creasable as check_creasable
 from .._scheme.base import AbstractCurveScheme
 
 
@@ -44,24 +45,6 @@ _REACH_TOLERANCE = 1e-12
 #: towards its limit from below with the levels, so its ceiling at 5 levels holds at all).
 _REACH_LEVELS = 5
 _REACH_SPANS = 12
-
-
-def check_creasable(scheme: AbstractCurveScheme, caller: str) -> None:
-    """A clear error for schemes whose creased closed curves this table cannot hold."""
-    if scheme.clamp_ghost is None:
-        raise ValueError(
-            f"`{caller}`: {type(scheme).__name__} has no clamped end rule, which is what a "
-            "crease is (the curve is cut there into clamped pieces); use a scheme with "
-            "one, such as CubicBSpline or FourPoint."
-        )
-    if not scheme.is_primal:
-        raise ValueError(
-            f"`{caller}`: creases as a mask need a primal scheme (one that keeps a point "
-            f"at every control point, such as CubicBSpline, FourPoint or SplitTweak); "
-            f"{type(scheme).__name__} is dual, and a dual scheme's creased curve has a "
-            "number of samples that depends on how many creases there are. Pass the "
-            "creases to `jaxsubdiv.refine(creases=...)` instead."
-        )
 
 
 def _concrete(scheme: AbstractCurveScheme) -> bool:
@@ -77,29 +60,33 @@ Tables = Callable[..., CurveStencil]
 def crease_reach(scheme: AbstractCurveScheme, tables: Tables) -> int:
     r"""How many spans from a clamped end its rules change the limit curve's samples:
     the smallest integer $\rho$ such that every sample at least $\rho$ spans from the
-    end of a clamped piece equals the closed curve's. Measured on the host (one small
-    compiled program, run at once, also inside a caller's trace), from a piece of 12
-    spans at 5 levels, at the scheme's values, or at its type's defaults when they are
-    traced: the reach follows from the mask's support, not its values (the same at every
-    four-point w and split-and-tweak t tried; `tests/test_curve_stencil.py`
-    differentiates a table built with w traced). Cached.
+    end of a clamped piece equals the closed curve's. Measured on the host, in float64
+    whatever JAX's precision setting, from a piece of 12 spans at 5 levels, once per
+    scheme type: at the type's default values (a scheme without defaults, such as a
+    `MaskScheme`, at its own). A reach that is too large is still exact (the library
+    then holds rows that equal the periodic ones), and other values do not reach
+    farther: 2 spans for the four-point and split-and-tweak schemes at every w in
+    (0, 0.3] and t in [-8, 6.5] tried, 1 at w = 0 or t = 0; 1 for the cubic B-spline.
+    So new values compile nothing. One small program, compiled ahead and run at once,
+    also inside a caller's trace. Cached.
 
     Raises `ValueError` for schemes whose clamped pieces are not the closed curve's
     refinement away from their ends (nothing to gather then)."""
     # Concrete values even inside a caller's trace (a default scheme's constructor runs
     # jax.numpy, which a trace would otherwise stage out).
     with jax.ensure_compile_time_eval():
-        if not _concrete(scheme):
-            try:
-                scheme = type(scheme)()
-            except TypeError:
+        try:
+            measured = type(scheme)()
+        except TypeError:
+            if not _concrete(scheme):
                 raise ValueError(
                     f"creases as a mask measure how far {type(scheme).__name__}'s clamped "
                     "ends reach on the host; its parameters are traced and it has no "
                     "default values to measure at. Build the table outside the trace."
                 ) from None
-        leaves, structure = jax.tree.flatten(scheme)
-        leaves = [np.asarray(x) for x in leaves]
+            measured = scheme
+        leaves, structure = jax.tree.flatten(measured)
+        leaves = [np.asarray(x, np.float64) for x in leaves]
     key = (structure, tuple(x.tobytes() for x in leaves))
     if key not in _REACHES:
         _REACHES[key] = _measured_reach(leaves, structure, tables, type(scheme).__name__)
@@ -121,8 +108,10 @@ def _measured_reach(leaves, structure, tables: Tables, name: str) -> int:
                 tables(scheme, 2 * spans + 2, levels, "closed", 0, np.float64).dense())
 
     # Compiled ahead and called with host arrays: it runs now, also when the caller is
-    # tracing (a jitted call would be staged into the caller's program).
-    clamped, closed = jax.jit(dense).lower(leaves).compile()(leaves)
+    # tracing (a jitted call would be staged into the caller's program). In float64:
+    # float32 rounding would make every row differ.
+    with jax.enable_x64(True):
+        clamped, closed = jax.jit(dense).lower(leaves).compile()(leaves)
     clamped, closed = np.asarray(clamped), np.asarray(closed)
     periodic = closed[: clamped.shape[0]]
     clamped = np.concatenate([clamped, np.zeros((clamped.shape[0], spans + 1))], axis=1)

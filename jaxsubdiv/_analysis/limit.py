@@ -18,7 +18,13 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._curve_stencil import CurveStencil, build as build_stencil, vertex_offsets
-from .._misc import DEFAULT_MEMORY_BUDGET, as_float_array, checked_budget, static_int
+from .._misc import (
+    DEFAULT_MEMORY_BUDGET,
+    as_float_array,
+    checked_budget,
+    is_traced,
+    static_int,
+)
 from .._refine import (
     BOUNDARIES,
     _check_boundary,
@@ -350,7 +356,7 @@ def _check_creases_mask(scheme, n, boundary, derivative, creases):
     mask = jnp.asarray(creases)
     if mask.shape != (n,) or mask.dtype != jnp.bool_:
         raise ValueError(
-            f"`curve_stencil(creases=...)` must be a boolean mask of shape ({n},) (one entry "
+            f"`creases` must be a boolean mask of shape ({n},) (one entry "
             f"per control point); got dtype {mask.dtype}, shape {mask.shape}. For indices "
             "`idx`, pass `jnp.zeros(n, bool).at[idx].set(True)`."
         )
@@ -476,6 +482,8 @@ def limit_curve(
     n, d = points.shape[-2:]
     batch, itemsize = math.prod(points.shape[:-2]), jnp.dtype(points.dtype).itemsize
     extra = 0
+    if creases is not None and not is_traced(creases) and np.size(creases) == 0:
+        creases = None  # no crease: the closed curve (as `refine(creases=[])`)
     if creases is not None:
         creases = _crease_mask(creases, n)
     if levels <= 64:  # beyond, `_check_memory` refuses from the bit length alone
@@ -492,12 +500,20 @@ def limit_curve(
 
 
 def _crease_mask(creases, n: int):
-    """Crease indices (a sequence of ints, as `refine` takes them) as a boolean mask;
-    a boolean array passes unchanged (it may be traced)."""
-    if hasattr(creases, "dtype") and creases.dtype == bool:
+    """Crease indices (an int or a sequence of ints, as `refine` takes them) as a boolean
+    mask; a boolean mask (a sequence or array, which may be traced) passes as an array."""
+    if is_traced(creases):
+        if creases.dtype != jnp.bool_:
+            raise ValueError(
+                "traced `creases` must be a boolean mask of shape (n,): indices set which "
+                "points are creased on the host. Pass `jnp.zeros(n, bool).at[idx].set(True)`."
+            )
         return creases
-    index = np.asarray(creases)
-    if index.ndim != 1 or (index.size and not np.issubdtype(index.dtype, np.integer)):
+    values = np.asarray(creases)
+    if values.dtype == bool:
+        return jnp.asarray(values)
+    index = values.reshape(-1).astype(np.int64) if values.size == 0 else values.reshape(-1)
+    if values.ndim > 1 or not np.issubdtype(index.dtype, np.integer):
         raise ValueError(
             f"`creases` must be control point indices or a boolean mask of shape ({n},); got "
             f"{creases!r}."

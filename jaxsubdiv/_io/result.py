@@ -164,7 +164,23 @@ def write_result_json(path, result, *, info: dict | None = None) -> None:
     creases = get("creases")
     if creases is not None:
         creases = np.asarray(creases)
+        if creases.dtype == bool and creases.shape != (len(points),):
+            raise ValueError(
+                f"`creases` as a boolean mask must have shape ({len(points)},), one entry per "
+                f"control point; got {creases.shape}."
+            )
         index = np.flatnonzero(creases) if creases.dtype == bool else creases.reshape(-1)
+        if index.size and (not np.issubdtype(index.dtype, np.integer) or np.any(
+                (index < 0) | (index >= len(points)))):
+            raise ValueError(
+                f"`creases` must be control point indices in [0, {len(points) - 1}] (or a "
+                f"boolean mask); got {creases.tolist()}."
+            )
+        if index.size and data["boundary"] != "closed":
+            raise ValueError(
+                f"`creases` need boundary='closed' (a creased closed curve); got "
+                f"{data['boundary']!r}."
+            )
         if index.size:
             # Version 2: a reader of version 1 would draw the curve without its corners.
             data["version"] = 2
