@@ -372,8 +372,8 @@ def test_fit_model_equals_dense_assembly(scheme, n, boundary):
 # (Few piece lengths: the reference compiles refine and limit_points for each.)
 _CREASE_SETS = [(3, (1,)), (3, (0, 1, 2)), (5, (0, 1)), (5, (2,)), (9, ()), (9, (0, 3, 4, 8)),
                 (9, (0, 1, 5)), (9, tuple(range(9)))]
-_CREASE_SCHEMES = [("cubic_bspline", js.CubicBSpline()), ("four_point", js.FourPoint(0.1)),
-                   ("split_tweak", js.SplitTweak(0.3))]
+# Reach 1 and 2 (split-and-tweak's is 2 as the four-point scheme's).
+_CREASE_SCHEMES = [("cubic_bspline", js.CubicBSpline()), ("four_point", js.FourPoint(0.1))]
 _CREASE_LEVELS = 3
 
 
