@@ -204,10 +204,8 @@ def initial_control(
     differences there).
     """
     closed = boundary == "closed"
-    fractions = chord_fractions(target, closed)
     N, n = table.shape
-    if position is not None:
-        fractions = position / n
+    fractions = chord_fractions(target, closed) if position is None else position / n
     W = weights / jnp.sum(weights)
     D = second_differences(n, closed, target.dtype, creases)
 

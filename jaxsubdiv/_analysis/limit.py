@@ -28,6 +28,7 @@ from .._misc import (
 from .._refine import (
     BOUNDARIES,
     _check_boundary,
+    _check_creases,
     _check_enough_points,
     _check_memory,
     _check_scheme,
@@ -512,14 +513,7 @@ def _crease_mask(creases, n: int):
     values = np.asarray(creases)
     if values.dtype == bool:
         return jnp.asarray(values)
-    index = values.reshape(-1).astype(np.int64) if values.size == 0 else values.reshape(-1)
-    if values.ndim > 1 or not np.issubdtype(index.dtype, np.integer):
-        raise ValueError(
-            f"`creases` must be control point indices or a boolean mask of shape ({n},); got "
-            f"{creases!r}."
-        )
-    if np.any((index < 0) | (index >= n)):
-        raise ValueError(f"`creases` must be indices in [0, {n - 1}], got {index.tolist()}.")
+    index = _check_creases(creases, n, "closed")  # `refine`'s own check of the indices
     mask = np.zeros(n, bool)
-    mask[index] = True
+    mask[list(index)] = True
     return jnp.asarray(mask)
