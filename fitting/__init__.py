@@ -18,3 +18,4 @@ from ._result import (
     FitResult as FitResult,
     FitStatus as FitStatus,
 )
+from ._tolerance import fit_tolerance as fit_tolerance

@@ -18,7 +18,8 @@ with warnings.catch_warnings():
     class FitStatus(optx.RESULTS):
         """Why a fit stopped: optimistix's results (`optimistix.RESULTS`, whose entries
         and numbers it keeps: `FitStatus.promote(solution.result)`), with our message for
-        `nonfinite_input`, and `invalid_input` (after optimistix's entries).
+        `nonfinite_input`, and `invalid_input` and `tolerance_not_reached` (after
+        optimistix's entries).
 
         `FitResult.status` holds an entry's number, the index of its name in
         [`fitting.STATUSES`][]: 0 (`successful`) when the solver met its tolerance.
@@ -31,6 +32,12 @@ with warnings.catch_warnings():
         invalid_input = (
             "the target is not a valid outline for these settings (the warning says why); "
             "it was not fitted."
+        )
+        # Set by `fit_tolerance` when no control-point count it tried fitted within the
+        # tolerance (the fit of smallest error is returned).
+        tolerance_not_reached = (
+            "no control-point count tried fitted within the tolerance (the warning says "
+            "which and why); the fit of smallest error is returned."
         )
 
 

@@ -388,6 +388,12 @@ def _size(points) -> float:
         return math.hypot(*np.ptp(points, axis=0).tolist())
 
 
+def _counts_text(results) -> str:
+    counts = sorted({int(r.control_points.shape[0]) for r in results})
+    text = str(counts[0]) if len(counts) == 1 else f"{counts[0]}-{counts[-1]}"
+    return f"{text} control points"
+
+
 def _print_errors(result, size: float, elapsed: float, preparing: str) -> None:
     rms, worst = float(result.rms), float(result.max_error)
     print(f"  status     {result.message.split('.')[0]}")
@@ -398,6 +404,8 @@ def _print_errors(result, size: float, elapsed: float, preparing: str) -> None:
 
 
 def _fit(args) -> int:
+    import math
+
     import jax
     import numpy as np
 
@@ -411,7 +419,16 @@ def _fit(args) -> int:
             f"--fit-params: --scheme {args.scheme} has no parameters to fit (these do: "
             f"{', '.join(_fittable())})"
         )
-    if args.n < 1:
+    if args.tolerance is not None:
+        if args.n is not None:
+            raise ValueError("--n and --tolerance: give one (--tolerance chooses the number "
+                             "of control points per contour)")
+        if not (math.isfinite(args.tolerance) and args.tolerance > 0):
+            raise ValueError(f"--tolerance must be a number > 0 (in the input's units), "
+                             f"got {args.tolerance}")
+    elif args.n is None:
+        args.n = 32
+    if args.n is not None and args.n < 1:
         raise ValueError(f"--n must be at least 1, got {args.n}")
     if args.max_steps < 1:
         raise ValueError(f"--max-steps must be at least 1, got {args.max_steps}")
@@ -440,8 +457,15 @@ def _fit(args) -> int:
             "contours; use .npz, .csv, .txt, .svg or .json"
         )
     fitted = [p for p in _declarations()[args.scheme].parameters if p.fit_interval is not None]
-    unknowns = 2 * args.n + (len(fitted) if args.fit_params else 0)
+    # With --tolerance, the counts tried stop at a quarter of each contour's samples.
+    unknowns = 2 * (args.n or 4) + (len(fitted) if args.fit_params else 0)
     for i, outline in enumerate(outlines):
+        if len(outline.points) < unknowns and args.tolerance is not None:
+            raise ValueError(
+                f"--tolerance: contour {i + 1} has {len(outline.points)} points, fewer than "
+                f"the {unknowns} unknowns of the smallest count tried (4 control points); "
+                "use more --samples"
+            )
         if len(outline.points) < unknowns:
             raise ValueError(
                 f"--n {args.n} is too many control points for contour {i + 1}: its "
@@ -449,8 +473,10 @@ def _fit(args) -> int:
                 "smaller --n or more --samples"
             )
     print(
-        f"fitting {_scheme_text(args.scheme, scheme)} curves with {args.n} control points "
-        f"to {_source(args)}: {count} contour{'s' if count > 1 else ''}"
+        f"fitting {_scheme_text(args.scheme, scheme)} curves with "
+        + (f"{args.n} control points" if args.tolerance is None else
+           f"the fewest control points within {args.tolerance:g} (max error)")
+        + f" to {_source(args)}: {count} contour{'s' if count > 1 else ''}"
         + (" (scheme parameters fitted too)" if args.fit_params else "")
     )
     results, sizes, pinned = [], [], []
@@ -476,12 +502,21 @@ def _fit(args) -> int:
         sys.stdout.flush()  # before the progress line on stderr
         start, compiles = time.perf_counter(), _compilations()
         corners = "auto" if args.corners == "auto" and creasable and boundary == "closed" else None
-        result = fitting.fit(
-            outline.points, scheme, args.n, levels=args.levels, boundary=boundary,
-            pin_ends=pin_ends, fit_params=bool(args.fit_params), max_steps=args.max_steps,
-            progress=False if args.quiet else "time", on_failure="ignore", pad_to=pad_to,
-            corners=corners,
+        options = dict(
+            levels=args.levels, boundary=boundary, pin_ends=pin_ends,
+            fit_params=bool(args.fit_params), max_steps=args.max_steps,
+            progress=False if args.quiet else "time", pad_to=pad_to, corners=corners,
         )
+        if args.tolerance is None:
+            result = fitting.fit(outline.points, scheme, args.n, on_failure="ignore", **options)
+        else:
+            tried = []
+            result = fitting.fit_tolerance(
+                outline.points, scheme, args.tolerance, on_failure="ignore",
+                on_trial=lambda n, r: tried.append(f"{n}: {float(r.max_error):.2g}"), **options,
+            )
+            print(f"  control    {result.control_points.shape[0]} points (max error by count "
+                  f"tried: {', '.join(tried)})")
         result = jax.block_until_ready(result)
         if result.creases is not None:
             print(f"  corners    {int(np.sum(result.creases))} (creased control points)")
@@ -540,7 +575,7 @@ def _fit(args) -> int:
         ax.legend(
             [drawn[0].curve, drawn[0].control, drawn[0].samples],
             ["limit curves" if many else "limit curve",
-             f"{args.n} control points" + (" per contour" if many else ""),
+             _counts_text(results) + (" per contour" if many else ""),
              f"{sum(len(o.points) for o in outlines)} samples"
              + (f" in {count} contours" if many else "")],
             loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=3, fontsize=7,
@@ -549,7 +584,7 @@ def _fit(args) -> int:
         worst = max(float(r.rms) / s for r, s in zip(results, sizes))
         largest = max(float(r.max_error) / s for r, s in zip(results, sizes))
         ax.set_title(
-            f"{_scheme_text(args.scheme, results[0].scheme)}, {args.n} control points"
+            f"{_scheme_text(args.scheme, results[0].scheme)}, {_counts_text(results)}"
             + (f" per contour, {count} contours" if many else "")
             + f"\ntwo-sided rms {worst:.1e}, max {largest:.1e} of the size"
             + (" (the worst contour)" if many else "")
@@ -599,8 +634,13 @@ def _add_fit(sub):
     )
     _add_input_options(fit, f"{_SHAPE_SAMPLES} along its edges")
     _add_scheme_options(fit, "cubic-bspline")
-    fit.add_argument("--n", type=int, default=32,
-                     help="control points per contour (default: 32)")
+    fit.add_argument("--n", type=int,
+                     help="control points per contour (default: 32, unless --tolerance)")
+    fit.add_argument("--tolerance", type=float,
+                     help="instead of --n: the fewest control points per contour whose "
+                     "two-sided max error is within this distance, in the input's units "
+                     "(pixels for images); counts from 4, 5, 6, 7, 8, 10, 12, ... up to a "
+                     "quarter of the contour's samples"),
     fittable = "; ".join(
         f"{name} " + ", ".join(p.name for p in _declarations()[name].parameters
                                if p.fit_interval is not None)

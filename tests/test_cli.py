@@ -718,3 +718,29 @@ def test_every_hostile_file_is_one_line_through_the_command(capsys, tmp_path):
         assert lines[0].startswith(f"jaxsubdiv refine: error: {path}"), (name, err)
         for word in [words] if isinstance(words, str) else words:
             assert word in lines[0], (name, word, err)
+
+
+def test_fit_tolerance_chooses_a_stars_ten_vertices(capsys, tmp_path):
+    # A five-point star's outline is exactly the creased cubic B-spline on its 10
+    # vertices; with fewer control points some corner is rounded, far beyond 1e-3.
+    status, out, err = cli(capsys, "fit", "--shape", "star", "--tolerance", "1e-3", "-q",
+                           "-o", tmp_path / "star.json")
+    assert status == 0, err
+    assert "control    10 points" in out and "corners    10" in out
+    saved = js.io.read_result_json(tmp_path / "star.json")
+    angle = np.pi / 2 + np.arange(10) * np.pi / 5
+    radius = np.where(np.arange(10) % 2 == 0, 1.0, 0.45)
+    vertices = np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
+    gaps = np.linalg.norm(saved.control_points[:, None] - vertices[None], axis=-1)
+    assert gaps.min(axis=1).max() < 1e-6 and len(set(gaps.argmin(axis=1))) == 10
+    assert sorted(saved.creases) == list(range(10))
+
+
+@pytest.mark.parametrize("args,match", [
+    (("--n", "8", "--tolerance", "0.1"), "--n and --tolerance"),
+    (("--tolerance", "0"), "--tolerance must be a number > 0"),
+    (("--tolerance", "nan"), "--tolerance must be a number > 0"),
+])
+def test_fit_tolerance_bad_arguments(capsys, args, match):
+    status, out, err = cli(capsys, "fit", "--shape", "star", *args)
+    assert status == 2 and match in err and "Traceback" not in err

@@ -1,0 +1,243 @@
+"""[`fitting.fit_tolerance`][]: the fewest control points that fit within a tolerance.
+
+A host-side search over control-point counts, each a [`fitting.fit`][]. The counts come
+from one ladder, four per octave (4, 5, 6, 7, 8, 10, 12, 14, 16, 20, ...), because every
+count is a compiled program of its own: contours, files and later processes (with
+`jaxsubdiv.enable_compilation_cache`) that search the same ladder reuse them.
+
+How the next count is chosen: a curve approximated by a spline of n pieces has an error
+that falls about like n^-p; p is measured from the last two fits (p = 2 before there are
+two, clamped to [0.5, 6]) and the count predicted to reach the tolerance is tried next,
+at most 4x the last one (or half of it, going down). Once one count fits and a smaller
+one does not, the counts between them on the ladder are bisected. Errors do not always
+fall with n (a fit can stop in a poorer minimum at a larger n), so the result is the
+smallest count *tried* that met the tolerance, not a certified minimum.
+"""
+
+import math
+import warnings
+from collections.abc import Callable
+from typing import Literal
+
+import numpy as np
+from jaxtyping import ArrayLike, Float
+
+import jaxsubdiv as js
+from jaxsubdiv.validation import static_int
+
+from ._checks import check_on_failure, float_array, min_points
+from ._fit import fit
+from ._result import FitResult, FitStatus, status_code
+
+
+#: Counts per octave of the ladder of control-point counts.
+_PER_OCTAVE = 4
+#: The first count tried (or the nearest in [n_min, n_max]).
+_START = 16
+#: An error that falls by less than this factor from one count to a larger one has stalled.
+_STALL = 0.8
+
+
+def ladder_floor(n: int) -> int:
+    """The largest ladder count <= n (n >= 4): 4, 5, 6, 7, 8, 10, 12, 14, 16, 20, ..."""
+    octave = 2 ** (int(n).bit_length() - 3)  # n in [4 octave, 8 octave)
+    return (n // octave) * octave
+
+
+def ladder(low: int, high: int) -> list[int]:
+    """The ladder's counts in [low, high] (low >= 4), increasing."""
+    counts, n = [], ladder_floor(low)
+    while n <= high:
+        if n >= low:
+            counts.append(n)
+        octave = 2 ** (n.bit_length() - 3)
+        n += octave
+    return counts
+
+
+def fit_tolerance(
+    target: Float[ArrayLike, "m d"],
+    scheme: js.AbstractCurveScheme,
+    tolerance: float,
+    *,
+    error: Literal["max_error", "rms"] = "max_error",
+    n_min: int | None = None,
+    n_max: int | None = None,
+    max_fits: int = 8,
+    on_trial: Callable[[int, FitResult], None] | None = None,
+    on_failure: Literal["raise", "warn", "ignore"] = "warn",
+    **options,
+) -> FitResult:
+    """Fit with the fewest control points whose error is within `tolerance`.
+
+    Tries control-point counts from a fixed ladder (4, 5, 6, 7, 8, 10, 12, 14, 16, 20,
+    24, ...: four per octave, so that the compiled programs are shared) with
+    [`fitting.fit`][], predicting from the errors met so far (an error falling like
+    n^-p, p measured) which count reaches the tolerance, then bisecting the ladder
+    between the largest count that missed and the smallest that met it. Returns the fit
+    of the smallest count tried that met the tolerance.
+
+    When none does, up to `n_max` or within `max_fits` fits, or because the error stops
+    falling as n grows (by less than a factor 0.8 twice in a row: the samples' own
+    resolution, noise, or the pixel staircase limit it), the fit of smallest error is
+    returned with the status `tolerance_not_reached` (`converged` False, the reason and
+    the error reached in the warning), as `on_failure` says. The figures stay those of
+    that fit: `rms` and `max_error` are measured as in any fit (two-sided, in the
+    target's units; `docs/fitting.md`, "Reported errors").
+
+    Host-side (each count is its own compiled program, and the search needs the
+    errors' values): not under `jax.jit`. Each new count compiles a program once per
+    process (about 5 s on 2 cores; cached on disk with
+    `jaxsubdiv.enable_compilation_cache()`).
+
+    **Arguments:**
+
+    - `target`, `scheme`: as for [`fitting.fit`][].
+    - `tolerance`: the largest acceptable error, in the target's units (pixels for
+      traced images), > 0.
+    - `error`: which figure must be within it: `"max_error"` (default; the two-sided
+      maximum distance) or `"rms"` (the two-sided RMS).
+    - `n_min`, `n_max`: the range of counts searched (default: the scheme's smallest
+      valid count, at least 4; and the ladder count at most a quarter of the samples, two
+      samples per unknown in the plane, at least `n_min`).
+    - `max_fits`: the most fits tried (default 8).
+    - `on_trial`: called with `(n, result)` after each fit, e.g. to report progress.
+    - `on_failure`: `"raise"` (`RuntimeError`), `"warn"` (default) or `"ignore"` when the
+      tolerance is not reached; a chosen fit whose solver did not converge (its status
+      says so) is reported the same way.
+    - every other keyword (`boundary`, `corners`, `fit_params`, `weights`, `levels`,
+      `max_steps`, ...) is passed to each [`fitting.fit`][] (not `n_control` or `init`).
+
+    **Returns:** a [`fitting.FitResult`][]; its count is `result.control_points.shape[0]`.
+    """
+    check_on_failure(on_failure)
+    for name in ("n_control", "init", "on_failure"):
+        if name in options:
+            raise TypeError(f"`fit_tolerance` chooses `{name}` itself; do not pass it.")
+    try:
+        tolerance = float(tolerance)
+    except (TypeError, ValueError):
+        raise TypeError(f"`fit_tolerance(tolerance=...)` must be a number; got {tolerance!r}.")
+    if not (math.isfinite(tolerance) and tolerance > 0):
+        raise ValueError(
+            f"`fit_tolerance(tolerance=...)` must be a finite number > 0 (in the target's "
+            f"units); got {tolerance}."
+        )
+    if error not in ("max_error", "rms"):
+        raise ValueError(f"`fit_tolerance(error=...)` must be 'max_error' or 'rms'; got {error!r}.")
+    max_fits = static_int(max_fits, "max_fits", minimum=1)
+    shape = np.shape(float_array(target, "target"))
+    boundary = options.get("boundary", "closed")
+    smallest = max(4, min_points(scheme, boundary) if isinstance(scheme, js.AbstractCurveScheme)
+                   else 4)
+    n_min = smallest if n_min is None else static_int(n_min, "n_min", minimum=smallest)
+    if n_max is None:
+        samples = shape[0] if len(shape) == 2 else 0
+        n_max = max(n_min, samples // (2 * max(shape[-1], 1)) if samples else n_min)
+    else:
+        n_max = static_int(n_max, "n_max", minimum=n_min)
+    counts = ladder(n_min, n_max) or [n_min]
+    if counts[-1] != n_max and n_max > counts[-1]:
+        counts.append(n_max)  # the user's (or samples') limit is tried even off the ladder
+    if counts[0] != n_min:
+        counts.insert(0, n_min)
+
+    tried: dict[int, FitResult] = {}
+    errors: dict[int, float] = {}
+
+    def attempt(i: int) -> float:
+        n = counts[i]
+        with warnings.catch_warnings():
+            # Each fit's own non-convergence is judged once, for the one returned.
+            warnings.simplefilter("ignore", RuntimeWarning)
+            result = fit(target, scheme, n, on_failure="ignore", **options)
+        value = float(getattr(result, error))
+        tried[i], errors[i] = result, value if math.isfinite(value) else math.inf
+        if on_trial is not None:
+            on_trial(n, result)
+        return errors[i]
+
+    def ok(i):
+        return errors[i] <= tolerance
+
+    attempt(min(range(len(counts)), key=lambda k: abs(counts[k] - max(_START, n_min))))
+    stalls, exponent, stopped = 0, 2.0, f"{max_fits} fits (max_fits) were tried"
+    while len(tried) < max_fits:
+        met = [k for k in sorted(tried) if ok(k)]
+        if met:
+            below = [k for k in tried if k < met[0]]
+            if met[0] == 0 or (below and max(below) == met[0] - 1):
+                break  # the count below the smallest that met was tried, and missed
+            if below:
+                j = (max(below) + met[0]) // 2  # bisect the ladder between them
+            else:  # predict down from the smallest that met, at most to half of it
+                wanted = counts[met[0]] * (errors[met[0]] / tolerance) ** (1 / exponent)
+                j = min(met[0] - 1, _index_at_most(counts, max(wanted, counts[met[0]] / 2)))
+        else:
+            k = max(tried)
+            if k == len(counts) - 1:
+                stopped = f"no count up to n_max={counts[-1]} fitted"
+                break
+            below = [q for q in tried if q < k]
+            if below:
+                q = max(below)
+                stalls = stalls + 1 if errors[k] > _STALL * errors[q] else 0
+                if stalls >= 2:
+                    stopped = ("the error stopped falling as n grew (by less than a factor "
+                               f"{_STALL} twice in a row)")
+                    break
+                if errors[k] < errors[q]:
+                    exponent = float(np.clip(
+                        math.log(errors[q] / errors[k]) / math.log(counts[k] / counts[q]),
+                        0.5, 6.0))
+            grow = (errors[k] / tolerance) ** (1 / exponent) if math.isfinite(errors[k]) else 2
+            j = max(k + 1, _index_at_least(counts, min(counts[k] * grow, 4 * counts[k])))
+        attempt(j)
+
+    met = [k for k in sorted(tried) if ok(k)]
+    best = met[0] if met else min(tried, key=lambda k: (errors[k], counts[k]))
+    result = tried[best]
+    if not met:
+        text = (
+            f"fit_tolerance: {stopped}; none fitted within the tolerance {tolerance:.3g} ({error}); the "
+            f"smallest {error} was {errors[best]:.3g}, at n = {counts[best]} (tried "
+            + ", ".join(f"{counts[k]}: {errors[k]:.2g}" for k in sorted(tried))
+            + "); that fit is returned with the status tolerance_not_reached."
+        )
+        result = _with_status(result, FitStatus.tolerance_not_reached)
+        if on_failure == "raise":
+            raise RuntimeError(text)
+        if on_failure == "warn":
+            warnings.warn(text, RuntimeWarning, stacklevel=2)
+    elif not bool(result.converged) and on_failure != "ignore":
+        text = (f"fit_tolerance: the fit at n = {counts[best]} is within the tolerance but its "
+                f"solver did not converge ({result.message}).")
+        if on_failure == "raise":
+            raise RuntimeError(text)
+        warnings.warn(text, RuntimeWarning, stacklevel=2)
+    return result
+
+
+def _index_at_least(counts: list[int], value: float) -> int:
+    """The index of the smallest count >= value (the last if none)."""
+    for i, n in enumerate(counts):
+        if n >= value:
+            return i
+    return len(counts) - 1
+
+
+def _index_at_most(counts: list[int], value: float) -> int:
+    """The index of the largest count <= value (0 if none)."""
+    found = 0
+    for i, n in enumerate(counts):
+        if n <= value:
+            found = i
+    return found
+
+
+def _with_status(result: FitResult, status) -> FitResult:
+    import equinox as eqx
+    import jax.numpy as jnp
+
+    code = jnp.asarray(status_code(status), result.status.dtype)
+    return eqx.tree_at(lambda r: r.status, result, code)
