@@ -595,6 +595,15 @@ def _fit(args) -> int:
         print(f"wrote {args.plot}")
     failed = [i for i, r in enumerate(results) if not bool(r.converged)]
     for i in failed:
+        if results[i].message.startswith("tolerance_not_reached"):
+            print(
+                f"jaxsubdiv fit: contour {i + 1} of {count}: no count of control points tried "
+                f"fitted within --tolerance {args.tolerance:g}; the fit of smallest max error "
+                f"({float(results[i].max_error):.3g}, {results[i].control_points.shape[0]} "
+                "control points) is the one written (the counts tried are on its 'control' "
+                "line)", file=sys.stderr,
+            )
+            continue
         print(
             f"jaxsubdiv fit: contour {i + 1} of {count} did not converge "
             f"({results[i].message.split('. ')[0]}) after {int(results[i].num_steps)} steps",

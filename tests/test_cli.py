@@ -744,3 +744,17 @@ def test_fit_tolerance_chooses_a_stars_ten_vertices(capsys, tmp_path):
 def test_fit_tolerance_bad_arguments(capsys, args, match):
     status, out, err = cli(capsys, "fit", "--shape", "star", *args)
     assert status == 2 and match in err and "Traceback" not in err
+
+
+def test_fit_tolerance_not_reached_exits_1_and_says_why(capsys, tmp_path):
+    # 40 noisy samples of a circle: counts up to 10 (a quarter of them), none within 1e-6.
+    rng = np.random.default_rng(1)
+    t = 2 * np.pi * np.arange(40) / 40
+    points = np.stack([np.cos(t), np.sin(t)], 1) + 0.01 * rng.standard_normal((40, 2))
+    np.savetxt(tmp_path / "noisy.csv", points, delimiter=",")
+    status, out, err = cli(capsys, "fit", tmp_path / "noisy.csv", "--tolerance", "1e-6", "-q",
+                           "--corners", "none")
+    assert status == 1
+    assert "control    10 points" in out
+    assert "no count of control points tried fitted within --tolerance 1e-06" in err
+    assert "Traceback" not in err
