@@ -23,9 +23,9 @@ import numpy as np
 from jaxtyping import ArrayLike, Float
 
 import jaxsubdiv as js
-from jaxsubdiv.validation import static_int
+from jaxsubdiv.validation import check_boundary, is_traced, min_points, static_int
 
-from ._checks import check_on_failure, float_array, min_points
+from ._checks import check_on_failure, float_array
 from ._fit import fit
 from ._result import FitResult, FitStatus, status_code
 
@@ -98,8 +98,8 @@ def fit_tolerance(
     - `error`: which figure must be within it: `"max_error"` (default; the two-sided
       maximum distance) or `"rms"` (the two-sided RMS).
     - `n_min`, `n_max`: the range of counts searched (default: the scheme's smallest
-      valid count, at least 4; and the ladder count at most a quarter of the samples, two
-      samples per unknown in the plane, at least `n_min`).
+      valid count, at least 4; and a quarter of the samples, two samples per unknown in
+      the plane, at least `n_min`). Both are tried even when they are not on the ladder.
     - `max_fits`: the most fits tried (default 8).
     - `on_trial`: called with `(n, result)` after each fit, e.g. to report progress.
     - `on_failure`: `"raise"` (`RuntimeError`), `"warn"` (default) or `"ignore"` when the
@@ -126,14 +126,25 @@ def fit_tolerance(
     if error not in ("max_error", "rms"):
         raise ValueError(f"`fit_tolerance(error=...)` must be 'max_error' or 'rms'; got {error!r}.")
     max_fits = static_int(max_fits, "max_fits", minimum=1)
-    shape = np.shape(float_array(target, "target"))
-    boundary = options.get("boundary", "closed")
-    smallest = max(4, min_points(scheme, boundary) if isinstance(scheme, js.AbstractCurveScheme)
-                   else 4)
+    target = float_array(target, "target")
+    if is_traced(target):
+        raise TypeError(
+            "`fit_tolerance` runs on the host (it compares the errors of whole fits to "
+            "choose the next count), so not under `jax.jit` or `jax.grad`; trace "
+            "`fitting.fit` at the count it chose instead."
+        )
+    if not isinstance(scheme, js.AbstractCurveScheme):
+        raise TypeError(
+            "`fit_tolerance(scheme=...)` must be a jaxsubdiv curve scheme such as "
+            f"`jaxsubdiv.CubicBSpline()`; got {type(scheme).__name__}."
+        )
+    smallest = max(4, min_points(scheme, check_boundary(options.get("boundary", "closed"),
+                                                        scheme)))
     n_min = smallest if n_min is None else static_int(n_min, "n_min", minimum=smallest)
     if n_max is None:
-        samples = shape[0] if len(shape) == 2 else 0
-        n_max = max(n_min, samples // (2 * max(shape[-1], 1)) if samples else n_min)
+        # Two samples per unknown; a target of the wrong shape is fit's error to report.
+        samples, d = (target.shape if target.ndim == 2 else (0, 1))
+        n_max = max(n_min, samples // (2 * max(d, 1)))
     else:
         n_max = static_int(n_max, "n_max", minimum=n_min)
     counts = ladder(n_min, n_max) or [n_min]

@@ -82,9 +82,21 @@ def test_tolerance_not_reached_says_so_and_returns_the_best():
     ({"tolerance": 0.1, "error": "mean"}, ValueError, "error"),
     ({"tolerance": 0.1, "n_control": 8}, TypeError, "n_control"),
     ({"tolerance": 0.1, "n_min": 8, "n_max": 6}, ValueError, "n_max"),
+    ({"tolerance": 0.1, "boundary": "loop"}, ValueError, "boundary"),
 ])
 def test_bad_arguments_are_named(kwargs, error, match):
     t = 2 * np.pi * np.arange(100) / 100
     samples = np.stack([np.cos(t), np.sin(t)], 1)
     with pytest.raises(error, match=match):
         fitting.fit_tolerance(samples, js.CubicBSpline(), **kwargs)
+
+
+def test_not_a_scheme_and_not_under_jit():
+    import jax
+
+    t = 2 * np.pi * np.arange(100) / 100
+    samples = np.stack([np.cos(t), np.sin(t)], 1)
+    with pytest.raises(TypeError, match="curve scheme"):
+        fitting.fit_tolerance(samples, "cubic", 0.1)
+    with pytest.raises(TypeError, match="on the host"):
+        jax.jit(lambda T: fitting.fit_tolerance(T, js.CubicBSpline(), 0.1).rms)(samples)
