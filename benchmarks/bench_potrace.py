@@ -27,7 +27,9 @@ Errors in pixels against the exact outline (all its contours), both ways, each p
 distance to the other's polylines by brute force: Hausdorff (the larger maximum) and
 RMS (the larger RMS over points dense and even along each). Times: potrace's process,
 median of 5 runs; our warm fits of all contours of the image (median of 3 after a call
-that compiles), reading the image excluded.
+that compiles), reading the image excluded. Each image runs in a process of its own
+(the programs of many sizes and counts would exhaust one process's memory mappings,
+vm.max_map_count), sharing a compilation cache on disk.
 
 Writes `results/potrace.json` and `.md` (`--output` sets the JSON path).
 """
@@ -207,11 +209,8 @@ def match(ours, theirs):
     return out
 
 
-def main():
-    args, output = arguments(__doc__, "potrace")
-    if shutil.which("potrace") is None:
-        sys.exit("bench_potrace: the `potrace` program is not installed "
-                 "(Debian: apt-get install potrace)")
+def measure(family, char, size, folder):
+    """One image: potrace, then our fits (this process compiles; see `main`)."""
     import jax
 
     jax.config.update("jax_enable_x64", True)
@@ -220,68 +219,92 @@ def main():
     import fitting
     import jaxsubdiv as js
 
+    js.enable_compilation_cache(Path(folder) / "cache")
+    scheme = js.CubicBSpline()
+    raw = analytic_contours(char) if family == "analytic" else glyph_contours(family, char)
+    truth = place(raw, size)
+    bitmap = rasterise(truth, size)
+    pbm, png, svg = (Path(folder) / f"image.{e}" for e in ("pbm", "png", "svg"))
+    pbm.write_text(f"P1\n{size} {size}\n" + "\n".join(
+        " ".join("1" if v else "0" for v in row) for row in bitmap) + "\n")
+    matplotlib.image.imsave(png, ~bitmap, cmap="gray", vmin=0, vmax=1)
+    times = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        subprocess.run(["potrace", "-b", "svg", "-u", "100", "-o", str(svg), str(pbm)],
+                       check=True)
+        times.append(time.perf_counter() - t0)
+    theirs = potrace_paths(svg.read_text())
+    p_rms, p_hausdorff = errors([p for p, _ in theirs], truth)
+    # Ours: pixel centers (c, size-1-r) -> the squares' frame, + 0.5.
+    contours = [o.points + 0.5 for o in js.io.read_image(png)]
+    counts = [max(4, theirs[j][1]) for j in match(contours, theirs)]
+
+    def fit_all(kind):
+        results = []
+        for points, n in zip(contours, counts):
+            if kind == "segments":
+                results.append(fitting.fit(points, scheme, n, corners="auto",
+                                           on_failure="ignore"))
+            else:
+                results.append(fitting.fit_tolerance(
+                    points, scheme, p_hausdorff, corners="auto", on_failure="ignore"))
+        return jax.block_until_ready(results)
+
+    row = dict(shape=char if family == "analytic" else f"{family} '{char}'",
+               size=size, contours=len(contours),
+               potrace=dict(segments=sum(c for _, c in theirs), rms=p_rms,
+                            hausdorff=p_hausdorff, seconds=statistics.median(times)))
+    for kind in ("segments", "error"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            results = fit_all(kind)
+            ours_times = []
+            for _ in range(3 if kind == "segments" else 1):
+                t0 = time.perf_counter()
+                results = fit_all(kind)
+                ours_times.append(time.perf_counter() - t0)
+        rms, hausdorff = errors([np.asarray(r.curve) for r in results], truth)
+        row[kind] = dict(
+            segments=sum(int(r.control_points.shape[0]) for r in results),
+            rms=rms, hausdorff=hausdorff, seconds=statistics.median(ours_times),
+            converged=all(bool(r.converged) for r in results),
+            corners=sum(0 if r.creases is None else int(np.sum(r.creases))
+                        for r in results))
+    return row
+
+
+def main():
+    if sys.argv[1:2] == ["--image"]:  # a child: one image, its row as JSON
+        family, char, size, folder = sys.argv[2:6]
+        print(json.dumps(measure(family, char, int(size), folder)))
+        return
+    args, output = arguments(__doc__, "potrace")
+    if shutil.which("potrace") is None:
+        sys.exit("bench_potrace: the `potrace` program is not installed "
+                 "(Debian: apt-get install potrace)")
+    import jax
+
     version = " ".join(subprocess.run(["potrace", "--version"], capture_output=True,
                                       text=True).stdout.split()[:2]).rstrip(".")
     shapes = ([("analytic", "star"), ("DejaVu Serif", "S")] if args.smoke
               else [("analytic", a) for a in ANALYTIC] + GLYPHS)
     sizes = SIZES[:1] if args.smoke else SIZES
-    scheme = js.CubicBSpline()
     run = header(python=sys.version.split()[0], jax=jax.__version__, potrace=version)
     rows = []
     start = time.perf_counter()
     folder = Path(tempfile.mkdtemp())
+    # One process per image: the fits of many sizes and counts compile more programs
+    # than one process can map (vm.max_map_count); a shared compilation cache on disk
+    # lets later images load the programs earlier ones compiled.
     for family, char in shapes:
-        raw = analytic_contours(char) if family == "analytic" else glyph_contours(family, char)
         for size in sizes:
-            truth = place(raw, size)
-            bitmap = rasterise(truth, size)
-            pbm, png, svg = (folder / f"image.{e}" for e in ("pbm", "png", "svg"))
-            pbm.write_text(f"P1\n{size} {size}\n" + "\n".join(
-                " ".join("1" if v else "0" for v in row) for row in bitmap) + "\n")
-            matplotlib.image.imsave(png, ~bitmap, cmap="gray", vmin=0, vmax=1)
-            times = []
-            for _ in range(5):
-                t0 = time.perf_counter()
-                subprocess.run(["potrace", "-b", "svg", "-u", "100", "-o", str(svg), str(pbm)],
-                               check=True)
-                times.append(time.perf_counter() - t0)
-            theirs = potrace_paths(svg.read_text())
-            p_rms, p_hausdorff = errors([p for p, _ in theirs], truth)
-            # Ours: pixel centers (c, size-1-r) -> the squares' frame, + 0.5.
-            contours = [o.points + 0.5 for o in js.io.read_image(png)]
-            counts = [max(4, theirs[j][1]) for j in match(contours, theirs)]
-
-            def fit_all(kind):
-                results = []
-                for points, n in zip(contours, counts):
-                    if kind == "segments":
-                        results.append(fitting.fit(points, scheme, n, corners="auto",
-                                                   on_failure="ignore"))
-                    else:
-                        results.append(fitting.fit_tolerance(
-                            points, scheme, p_hausdorff, corners="auto", on_failure="ignore"))
-                return jax.block_until_ready(results)
-
-            row = dict(shape=char if family == "analytic" else f"{family} '{char}'",
-                       size=size, contours=len(contours),
-                       potrace=dict(segments=sum(c for _, c in theirs), rms=p_rms,
-                                    hausdorff=p_hausdorff, seconds=statistics.median(times)))
-            for kind in ("segments", "error"):
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    results = fit_all(kind)
-                    ours_times = []
-                    for _ in range(3 if kind == "segments" else 1):
-                        t0 = time.perf_counter()
-                        results = fit_all(kind)
-                        ours_times.append(time.perf_counter() - t0)
-                rms, hausdorff = errors([np.asarray(r.curve) for r in results], truth)
-                row[kind] = dict(
-                    segments=sum(int(r.control_points.shape[0]) for r in results),
-                    rms=rms, hausdorff=hausdorff, seconds=statistics.median(ours_times),
-                    converged=all(bool(r.converged) for r in results),
-                    corners=sum(0 if r.creases is None else int(np.sum(r.creases))
-                                for r in results))
+            done = subprocess.run([sys.executable, __file__, "--image", family, char,
+                                   str(size), str(folder)], capture_output=True, text=True,
+                                  timeout=3600)
+            if done.returncode != 0:
+                raise SystemExit(f"{family} {char!r} at {size} px failed:\n{done.stderr}")
+            row = json.loads(done.stdout.strip().splitlines()[-1])
             rows.append(row)
             print(row, flush=True)
     run.update(load_end=load(), wall_seconds=round(time.perf_counter() - start, 1), rows=rows)

@@ -88,7 +88,10 @@ def fit_tolerance(
     Host-side (each count is its own compiled program, and the search needs the
     errors' values): not under `jax.jit`. Each new count compiles a program once per
     process (about 5 s on 2 cores; cached on disk with
-    `jaxsubdiv.enable_compilation_cache()`).
+    `jaxsubdiv.enable_compilation_cache()`). Each program holds about a thousand
+    memory mappings, of the 65,530 Linux allows a process by default: many outlines of
+    different sample counts in one process should share a `pad_to` (see
+    `docs/fitting.md`, "The number of control points for a tolerance").
 
     **Arguments:**
 
