@@ -649,7 +649,7 @@ def _add_fit(sub):
                      help="instead of --n: the fewest control points per contour whose "
                      "two-sided max error is within this distance, in the input's units "
                      "(pixels for images); counts from 4, 5, 6, 7, 8, 10, 12, ... up to a "
-                     "quarter of the contour's samples"),
+                     "quarter of the contour's samples")
     fittable = "; ".join(
         f"{name} " + ", ".join(p.name for p in _declarations()[name].parameters
                                if p.fit_interval is not None)
