@@ -1,6 +1,6 @@
 """Tracing bitmaps: our fit against potrace, errors against the true outlines (issue #21).
 
-    python benchmarks/bench_potrace.py           # full run (~20 min on 2 cores)
+    python benchmarks/bench_potrace.py           # full run (~60 min on 2 cores)
     python benchmarks/bench_potrace.py --smoke   # the star and DejaVu Serif 'S' at 256 px
 
 Needs the `potrace` program (Debian's package; a benchmark-only reference).
