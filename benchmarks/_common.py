@@ -58,6 +58,13 @@ def timed(call, repeats: int):
     return statistics.median(times), out
 
 
+def write_results(output: pathlib.Path, run: dict, markdown) -> None:
+    """Write the run as JSON at `output` and as `markdown(run)` next to it (.md)."""
+    output.write_text(json.dumps(run, indent=1))
+    output.with_suffix(".md").write_text(markdown(run))
+    print(f"wrote {output} and {output.with_suffix('.md')}")
+
+
 def load() -> list[float]:
     return [round(x, 2) for x in os.getloadavg()]
 

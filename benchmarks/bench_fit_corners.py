@@ -20,7 +20,6 @@ spaced along each). Times: warm medians of 3 calls (first call excluded).
 Writes `results/fit_corners.json` and `.md` (`--output` sets the JSON path).
 """
 
-import json
 import statistics
 import sys
 import time
@@ -31,7 +30,7 @@ import numpy as np
 
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import arguments, header, load  # noqa: E402
+from _common import arguments, header, load, write_results  # noqa: E402
 
 
 SHAPES = [("star", None), ("DejaVu Serif", "S"), ("DejaVu Serif", "g"), ("DejaVu Serif", "&"),
@@ -48,8 +47,9 @@ def star_outline():
     return np.concatenate([V[i] + u * (V[(i + 1) % 10] - V[i]) for i in range(10)])
 
 
-def glyph_outline(family, char):
-    """The outer contour of a glyph, its Bezier segments evaluated at 200 parameters."""
+def glyph_contours(family, char):
+    """Every contour of a glyph (holes too), its Bezier segments evaluated at 200
+    parameters each."""
     from matplotlib import font_manager
     from matplotlib.font_manager import FontProperties
     from matplotlib.textpath import TextPath
@@ -74,11 +74,16 @@ def glyph_outline(family, char):
                        * (segment.control_points[1] - segment.control_points[0]))
     if current:
         contours.append(np.concatenate(current))
+    return contours
+
+
+def glyph_outline(family, char):
+    """The outer contour of a glyph, its Bezier segments evaluated at 200 parameters."""
 
     def area(p):
         return 0.5 * abs(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]))
 
-    outline = max(contours, key=area)
+    outline = max(glyph_contours(family, char), key=area)
     keep = np.r_[True, np.linalg.norm(np.diff(outline, axis=0), axis=1) > 1e-12]
     return outline[keep]
 
@@ -153,9 +158,7 @@ def main():
                 print(name, scheme_name, n, {k: row[k] for k in ("smooth", "corners")},
                       flush=True)
     run.update(load_end=load(), wall_seconds=round(time.perf_counter() - start, 1), rows=rows)
-    output.write_text(json.dumps(run, indent=1))
-    output.with_suffix(".md").write_text(markdown(run))
-    print(f"wrote {output} and {output.with_suffix('.md')}")
+    write_results(output, run, markdown)
 
 
 def markdown(run) -> str:

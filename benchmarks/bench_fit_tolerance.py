@@ -18,7 +18,6 @@ and the Hausdorff distance of the default fit (`n = 32`, corners on) for compari
 Writes `results/fit_tolerance.json` and `.md` (`--output` sets the JSON path).
 """
 
-import json
 import statistics
 import sys
 import time
@@ -29,7 +28,7 @@ import numpy as np
 
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import arguments, header, load  # noqa: E402
+from _common import arguments, header, load, write_results  # noqa: E402
 from bench_fit_corners import errors, glyph_outline, resample  # noqa: E402
 
 
@@ -95,9 +94,7 @@ def main():
                                        "max_error", "seconds", "single_fit_seconds")},
                   flush=True)
     run.update(load_end=load(), wall_seconds=round(time.perf_counter() - start, 1), rows=rows)
-    output.write_text(json.dumps(run, indent=1))
-    output.with_suffix(".md").write_text(markdown(run))
-    print(f"wrote {output} and {output.with_suffix('.md')}")
+    write_results(output, run, markdown)
 
 
 def markdown(run) -> str:

@@ -49,43 +49,14 @@ import numpy as np
 
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import arguments, header, load  # noqa: E402
-from bench_fit_corners import to_polyline  # noqa: E402
+from _common import arguments, header, load, write_results  # noqa: E402
+from bench_fit_corners import glyph_contours, to_polyline  # noqa: E402
 
 
 GLYPHS = [(family, char) for family in ("DejaVu Serif", "STIXGeneral") for char in "Sg&Q"]
 ANALYTIC = ["disk", "ellipse", "superellipse", "star"]
 SIZES = (256, 1024)
 DENSE = 0.25  # spacing of the dense points on every outline, in px
-
-
-def glyph_contours(family, char):
-    """Every contour of a glyph, its Bezier segments evaluated at 200 parameters each."""
-    from matplotlib import font_manager
-    from matplotlib.font_manager import FontProperties
-    from matplotlib.textpath import TextPath
-
-    prop = FontProperties(family=family)
-    found = font_manager.findfont(prop, fallback_to_default=False)
-    if family.replace(" ", "") not in Path(found).stem.replace(" ", ""):
-        raise RuntimeError(f"font {family!r} resolved to {found}")
-    path = TextPath((0, 0), char, size=1.0, prop=prop)
-    contours, current = [], []
-    u = np.linspace(0, 1, 200, endpoint=False)
-    for segment, code in path.iter_bezier():
-        if code == path.MOVETO:
-            if current:
-                contours.append(np.concatenate(current))
-            current = []
-            continue
-        if code == path.CLOSEPOLY:
-            continue
-        current.append(segment(u) if code != path.LINETO
-                       else segment.control_points[0] + u[:, None]
-                       * (segment.control_points[1] - segment.control_points[0]))
-    if current:
-        contours.append(np.concatenate(current))
-    return contours
 
 
 def analytic_contours(name):
@@ -308,9 +279,7 @@ def main():
             rows.append(row)
             print(row, flush=True)
     run.update(load_end=load(), wall_seconds=round(time.perf_counter() - start, 1), rows=rows)
-    output.write_text(json.dumps(run, indent=1))
-    output.with_suffix(".md").write_text(markdown(run))
-    print(f"wrote {output} and {output.with_suffix('.md')}")
+    write_results(output, run, markdown)
 
 
 def markdown(run) -> str:
