@@ -36,9 +36,9 @@ with warnings.catch_warnings():
         # Set by `fit_tolerance` when no control-point count it tried fitted within the
         # tolerance (the fit of smallest error is returned).
         tolerance_not_reached = (
-            "no control-point count tried fitted within the tolerance; the fit of "
-            "smallest error is returned (`on_failure='warn'` lists the counts tried and "
-            "why the search stopped)."
+            "no control-point count tried fitted within the tolerance. The fit of "
+            "smallest error is returned; with on_failure='warn' a warning lists the counts "
+            "tried and why the search stopped."
         )
 
 

@@ -6,8 +6,8 @@ count is a compiled program of its own: contours, files and later processes (wit
 `jaxsubdiv.enable_compilation_cache`) that search the same ladder reuse them.
 
 How the next count is chosen: a curve approximated by a spline of n pieces has an error
-that falls about like n^-p; p is measured from the last two fits (p = 2 before there are
-two, clamped to [0.5, 6]) and the count predicted to reach the tolerance is tried next,
+that falls about like n^-p; p is measured from the last two fits that missed it, going
+up (p = 2 before there are two, clamped to [0.5, 6]) and the count predicted to reach the tolerance is tried next,
 at most 4x the last one (or half of it, going down). Once one count fits and a smaller
 one does not, the counts between them on the ladder are bisected. Errors do not always
 fall with n (a fit can stop in a poorer minimum at a larger n), so the result is the
@@ -27,6 +27,7 @@ from jaxsubdiv.validation import check_boundary, is_traced, min_points, static_i
 
 from ._checks import check_on_failure, float_array
 from ._fit import fit
+from ._params import fitted_names
 from ._result import FitResult, FitStatus, status_code
 
 
@@ -34,8 +35,8 @@ from ._result import FitResult, FitStatus, status_code
 _PER_OCTAVE = 4
 #: The first count tried (or the nearest in [n_min, n_max]).
 _START = 16
-#: An error that falls by less than this factor from one count to a larger one has stalled.
-_STALL = 0.8
+#: An error falling more slowly than n^-_STALL from one count to the next tried has stalled.
+_STALL = 0.5
 
 
 def ladder_floor(n: int) -> int:
@@ -78,7 +79,7 @@ def fit_tolerance(
     of the smallest count tried that met the tolerance.
 
     When none does, up to `n_max` or within `max_fits` fits, or because the error stops
-    falling as n grows (by less than a factor 0.8 twice in a row: the samples' own
+    falling as n grows (more slowly than n^-0.5 twice in a row: the samples' own
     resolution, noise, or the pixel staircase limit it), the fit of smallest error is
     returned with the status `tolerance_not_reached` (`converged` False, the reason and
     the error reached in the warning), as `on_failure` says. The figures stay those of
@@ -102,7 +103,9 @@ def fit_tolerance(
       maximum distance) or `"rms"` (the two-sided RMS).
     - `n_min`, `n_max`: the range of counts searched (default: the scheme's smallest
       valid count, at least 4; and a quarter of the samples, two samples per unknown in
-      the plane, at least `n_min`). Both are tried even when they are not on the ladder.
+      the plane, at least `n_min`; at most one sample per unknown). Both are among the
+      counts searched even when they are not on the ladder. With `corners` given as
+      indices, `n_min` is at least their number.
     - `max_fits`: the most fits tried (default 8).
     - `on_trial`: called with `(n, result)` after each fit, e.g. to report progress.
     - `on_failure`: `"raise"` (`RuntimeError`), `"warn"` (default) or `"ignore"` when the
@@ -114,7 +117,7 @@ def fit_tolerance(
     **Returns:** a [`fitting.FitResult`][]; its count is `result.control_points.shape[0]`.
     """
     check_on_failure(on_failure)
-    for name in ("n_control", "init", "on_failure"):
+    for name in ("n_control", "init"):
         if name in options:
             raise TypeError(f"`fit_tolerance` chooses `{name}` itself; do not pass it.")
     try:
@@ -141,15 +144,36 @@ def fit_tolerance(
             "`fit_tolerance(scheme=...)` must be a jaxsubdiv curve scheme such as "
             f"`jaxsubdiv.CubicBSpline()`; got {type(scheme).__name__}."
         )
+    if target.ndim != 2 or target.shape[1] < 2:
+        raise ValueError(
+            f"`fit_tolerance(target=...)` must have shape (m, d) with d >= 2 (samples of an "
+            f"outline); got shape {target.shape}."
+        )
+    samples, d = target.shape
     smallest = max(4, min_points(scheme, check_boundary(options.get("boundary", "closed"),
                                                         scheme)))
+    corners = options.get("corners")
+    if corners is not None and not isinstance(corners, str):
+        # Every corner given is a control point: no count below their number fits.
+        given = np.unique(np.mod(np.asarray(corners, dtype=np.int64).ravel(), samples))
+        smallest = max(smallest, given.size)
     n_min = smallest if n_min is None else static_int(n_min, "n_min", minimum=smallest)
+    # At least as many samples as unknowns (fit's own limit), checked before any fit.
+    largest = (samples - len(fitted_names(scheme, options.get("fit_params", False)))) // d
+    if n_min > largest:
+        raise ValueError(
+            f"`fit_tolerance`: {samples} samples fit at most {largest} control points "
+            f"(one sample per unknown), fewer than n_min={n_min}; give more samples."
+        )
     if n_max is None:
-        # Two samples per unknown; a target of the wrong shape is fit's error to report.
-        samples, d = (target.shape if target.ndim == 2 else (0, 1))
-        n_max = max(n_min, samples // (2 * max(d, 1)))
+        n_max = max(n_min, samples // (2 * d))  # two samples per unknown
     else:
         n_max = static_int(n_max, "n_max", minimum=n_min)
+        if n_max > largest:
+            raise ValueError(
+                f"`fit_tolerance(n_max={n_max})`: {samples} samples fit at most {largest} "
+                "control points (one sample per unknown); use a smaller n_max or more samples."
+            )
     counts = ladder(n_min, n_max) or [n_min]
     if counts[-1] != n_max and n_max > counts[-1]:
         counts.append(n_max)  # the user's (or samples') limit is tried even off the ladder
@@ -161,10 +185,8 @@ def fit_tolerance(
 
     def attempt(i: int) -> float:
         n = counts[i]
-        with warnings.catch_warnings():
-            # Each fit's own non-convergence is judged once, for the one returned.
-            warnings.simplefilter("ignore", RuntimeWarning)
-            result = fit(target, scheme, n, on_failure="ignore", **options)
+        # Each fit's own non-convergence is judged once, for the one returned.
+        result = fit(target, scheme, n, on_failure="ignore", **options)
         value = float(getattr(result, error))
         tried[i], errors[i] = result, value if math.isfinite(value) else math.inf
         if on_trial is not None:
@@ -195,20 +217,27 @@ def fit_tolerance(
             below = [q for q in tried if q < k]
             if below:
                 q = max(below)
-                stalls = stalls + 1 if errors[k] > _STALL * errors[q] else 0
-                if stalls >= 2:
-                    stopped = ("the error stopped falling as n grew (by less than a factor "
-                               f"{_STALL} twice in a row)")
-                    break
-                if errors[k] < errors[q]:
-                    exponent = float(np.clip(
-                        math.log(errors[q] / errors[k]) / math.log(counts[k] / counts[q]),
-                        0.5, 6.0))
+                if math.isfinite(errors[q]):
+                    # The exponent of the fall from q to k (inf or NaN errors: none).
+                    fall = (math.log(errors[q] / errors[k]) / math.log(counts[k] / counts[q])
+                            if 0 < errors[k] < math.inf and errors[q] > 0 else -math.inf)
+                    stalls = stalls + 1 if fall < _STALL else 0
+                    if stalls >= 2:
+                        stopped = ("the error stopped falling as n grew (more slowly than "
+                                   f"n^-{_STALL} twice in a row)")
+                        break
+                    if fall > 0:
+                        exponent = float(np.clip(fall, _STALL, 6.0))
             grow = (errors[k] / tolerance) ** (1 / exponent) if math.isfinite(errors[k]) else 2
             j = max(k + 1, _index_at_least(counts, min(counts[k] * grow, 4 * counts[k])))
         attempt(j)
 
     met = [k for k in sorted(tried) if ok(k)]
+    if met and met[0] > 0 and met[0] - 1 not in tried and on_failure == "warn":
+        warnings.warn(
+            f"fit_tolerance: n = {counts[met[0]]} is within the tolerance, but max_fits="
+            f"{max_fits} ran out before n = {counts[met[0] - 1]} was tried: a smaller count "
+            "may be within it too.", RuntimeWarning, stacklevel=2)
     best = met[0] if met else min(tried, key=lambda k: (errors[k], counts[k]))
     result = tried[best]
     if not met:

@@ -410,7 +410,7 @@ def _fit(args) -> int:
     import numpy as np
 
     import fitting
-    from jaxsubdiv.validation import check_creasable
+    from jaxsubdiv.validation import check_creasable, min_points
 
     js = _js()
     scheme = _scheme(args)
@@ -457,15 +457,20 @@ def _fit(args) -> int:
             "contours; use .npz, .csv, .txt, .svg or .json"
         )
     fitted = [p for p in _declarations()[args.scheme].parameters if p.fit_interval is not None]
-    # With --tolerance, the counts tried stop at a quarter of each contour's samples.
-    unknowns = 2 * (args.n or 4) + (len(fitted) if args.fit_params else 0)
+    extra = len(fitted) if args.fit_params else 0
     for i, outline in enumerate(outlines):
-        if len(outline.points) < unknowns and args.tolerance is not None:
-            raise ValueError(
-                f"--tolerance: contour {i + 1} has {len(outline.points)} points, fewer than "
-                f"the {unknowns} unknowns of the smallest count tried (4 control points); "
-                "use more --samples"
-            )
+        if args.tolerance is not None:
+            # The smallest count searched must have as many samples as unknowns.
+            boundary = args.boundary or ("closed" if outline.closed else "open")
+            smallest = max(4, min_points(scheme, boundary))
+            if len(outline.points) < 2 * smallest + extra:
+                raise ValueError(
+                    f"--tolerance: contour {i + 1} has {len(outline.points)} points, fewer "
+                    f"than the {2 * smallest + extra} unknowns of the smallest count searched "
+                    f"({smallest} control points); use more --samples"
+                )
+            continue
+        unknowns = 2 * args.n + extra
         if len(outline.points) < unknowns:
             raise ValueError(
                 f"--n {args.n} is too many control points for contour {i + 1}: its "
@@ -479,7 +484,7 @@ def _fit(args) -> int:
         + f" to {_source(args)}: {count} contour{'s' if count > 1 else ''}"
         + (" (scheme parameters fitted too)" if args.fit_params else "")
     )
-    results, sizes, pinned = [], [], []
+    results, sizes, pinned, stop_reasons = [], [], [], {}
     # Corners need a scheme whose closed curves take creases as data.
     try:
         check_creasable(scheme, "fit(corners=...)")
@@ -511,10 +516,16 @@ def _fit(args) -> int:
             result = fitting.fit(outline.points, scheme, args.n, on_failure="ignore", **options)
         else:
             tried = []
-            result = fitting.fit_tolerance(
-                outline.points, scheme, args.tolerance, on_failure="ignore",
-                on_trial=lambda n, r: tried.append(f"{n}: {float(r.max_error):.2g}"), **options,
-            )
+            # The search's warning says why it stopped; it is printed with the failures.
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                result = fitting.fit_tolerance(
+                    outline.points, scheme, args.tolerance, on_failure="warn",
+                    on_trial=lambda n, r: tried.append(f"{n}: {float(r.max_error):.2g}"),
+                    **options,
+                )
+            stop_reasons[i] = next((str(w.message) for w in caught
+                                    if str(w.message).startswith("fit_tolerance: ")), "")
             print(f"  control    {result.control_points.shape[0]} points (max error by count "
                   f"tried: {', '.join(tried)})")
         result = jax.block_until_ready(result)
@@ -596,12 +607,12 @@ def _fit(args) -> int:
     failed = [i for i, r in enumerate(results) if not bool(r.converged)]
     for i in failed:
         if results[i].message.startswith("tolerance_not_reached"):
+            why = stop_reasons.get(i, "").removeprefix("fit_tolerance: ").split("; ")[0]
             print(
                 f"jaxsubdiv fit: contour {i + 1} of {count}: no count of control points tried "
-                f"fitted within --tolerance {args.tolerance:g}; the fit of smallest max error "
-                f"({float(results[i].max_error):.3g}, {results[i].control_points.shape[0]} "
-                "control points) is the one written (the counts tried are on its 'control' "
-                "line)", file=sys.stderr,
+                f"fitted within --tolerance {args.tolerance:g} ({why}); its result is the fit "
+                f"of smallest max error ({float(results[i].max_error):.3g}, "
+                f"{results[i].control_points.shape[0]} control points)", file=sys.stderr,
             )
             continue
         print(
@@ -638,7 +649,8 @@ def _add_fit(sub):
             "parameters) to each contour of an outline file, a glyph or a built-in shape. "
             "Prints the two-sided rms and max error of each fit, absolute and relative to "
             "the contour's size (its bounding-box diagonal). Exit status: 0 if every "
-            "contour converged, 1 if some did not, 2 for bad input."
+            "contour converged (and, with --tolerance, met it), 1 if some did not, 2 for "
+            "bad input."
         ),
     )
     _add_input_options(fit, f"{_SHAPE_SAMPLES} along its edges")

@@ -757,4 +757,5 @@ def test_fit_tolerance_not_reached_exits_1_and_says_why(capsys, tmp_path):
     assert status == 1
     assert "control    10 points" in out
     assert "no count of control points tried fitted within --tolerance 1e-06" in err
+    assert "n_max=10" in err  # why: a quarter of the 40 samples
     assert "Traceback" not in err

@@ -6,13 +6,17 @@ re-measured by brute force between the fitted curve and the samples' polyline (n
 next smaller count of the ladder.
 """
 
+import math
 import warnings
 
+import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 import pytest
 from helpers import glyph_outline, polyline_distances
 
 import fitting
+import fitting._tolerance as tolerance_search
 import jaxsubdiv as js
 from fitting._tolerance import ladder
 
@@ -65,7 +69,7 @@ def test_tolerance_not_reached_says_so_and_returns_the_best():
                                        on_trial=lambda n, r: tried.update({n: r}))
     assert fitting.STATUSES[int(result.status)] == "tolerance_not_reached"
     assert not bool(result.converged)
-    assert float(result.max_error) == min(float(r.max_error) for r in tried.values())
+    assert list(tried) == [8]  # the start (nearest 16) is n_max: nothing more to try
     with pytest.raises(RuntimeError, match="tolerance_not_reached"):
         fitting.fit_tolerance(samples, js.CubicBSpline(), 1e-4, n_min=6, n_max=8,
                               on_failure="raise")
@@ -100,3 +104,111 @@ def test_not_a_scheme_and_not_under_jit():
         fitting.fit_tolerance(samples, "cubic", 0.1)
     with pytest.raises(TypeError, match="on the host"):
         jax.jit(lambda T: fitting.fit_tolerance(T, js.CubicBSpline(), 0.1).rms)(samples)
+
+
+# ------------------------------------------------------------------------------------
+# The search itself, on scripted errors: `fit` replaced by a stub (nothing compiled).
+
+LADDER = [4, 5, 6, 7, 8, 10, 12, 14, 16, 20, 24, 28, 32, 40, 48, 56, 64, 80, 96, 112, 128]
+
+
+class ScriptedFit(eqx.Module):
+    control_points: np.ndarray
+    max_error: float
+    rms: float
+    status: jnp.ndarray
+
+    @property
+    def converged(self):
+        return self.status == 0
+
+    @property
+    def message(self):
+        return fitting._result.status_message(int(self.status))
+
+
+def scripted(monkeypatch, error_of):
+    """Replace the search's `fit` by one whose error at n is `error_of(n)`; the list of
+    counts fitted, in order."""
+    calls = []
+
+    def fake_fit(target, scheme, n, **options):
+        calls.append(n)
+        e = float(error_of(n))
+        return ScriptedFit(np.zeros((n, 2)), e, e, jnp.asarray(0, jnp.int32))
+
+    monkeypatch.setattr(tolerance_search, "fit", fake_fit)
+    return calls
+
+
+CIRCLE = np.stack([np.cos(np.arange(520) * 2 * np.pi / 520),
+                   np.sin(np.arange(520) * 2 * np.pi / 520)], 1)  # n_max 130
+
+
+@pytest.mark.parametrize("c,p,tol", [(1.0, 2, 1e-3), (1.0, 4, 1e-6), (3.0, 1, 0.05),
+                                     (0.5, 2, 0.3), (1.0, 3, 2e-6), (2.0, 1.5, 0.004)])
+def test_search_returns_the_smallest_ladder_count_of_a_power_law(monkeypatch, c, p, tol):
+    calls = scripted(monkeypatch, lambda n: c * n**-p)
+    result = fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), tol)
+    expected = min(n for n in LADDER + [130] if c * n**-p <= tol)
+    assert result.control_points.shape[0] == expected
+    if expected > 4:  # the count below it was tried, and missed
+        assert LADDER[LADDER.index(expected) - 1] in calls
+    assert len(calls) == len(set(calls)) <= 8
+
+
+def test_a_slow_but_steady_fall_is_not_a_stall(monkeypatch):
+    # Falls like n^-0.7 to n^-0.8 between neighbouring counts: reaches 0.0174 at n = 28.
+    scripted(monkeypatch, lambda n: 0.005 + 0.3 / n)
+    assert fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 0.0174).control_points.shape[0] == 28
+
+
+def test_a_floor_stops_the_search_and_returns_the_best(monkeypatch):
+    calls = scripted(monkeypatch, lambda n: 0.01 + n**-2.0)
+    with pytest.warns(RuntimeWarning, match="stopped falling"):
+        result = fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 0.005)
+    assert fitting.STATUSES[int(result.status)] == "tolerance_not_reached"
+    assert result.max_error == min(0.01 + n**-2.0 for n in calls)
+    assert len(calls) < 8
+
+
+def test_non_finite_errors_are_misses(monkeypatch):
+    calls = scripted(monkeypatch, lambda n: math.nan if n in (16, 20) else n**-2.0)
+    result = fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 1e-3)
+    assert result.control_points.shape[0] == 32 and 28 in calls
+
+
+def test_non_monotone_errors_give_the_smallest_count_tried_within(monkeypatch):
+    errors = {16: 0.5, 10: 0.9, 12: 0.5, 14: 2.0}
+    calls = scripted(monkeypatch, lambda n: errors.get(n, 0.5 if n > 16 else 2.0))
+    result = fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 1.0)
+    assert result.control_points.shape[0] == 10 and 8 in calls
+
+
+def test_max_fits_running_out_is_said(monkeypatch):
+    scripted(monkeypatch, lambda n: n**-2.0)
+    with pytest.warns(RuntimeWarning, match="max_fits=2 ran out"):
+        result = fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 1.0, max_fits=2)
+    assert result.control_points.shape[0] == 8  # 16, then half of it
+
+
+def test_counts_off_the_ladder_and_corner_indices_bound_the_search(monkeypatch):
+    calls = scripted(monkeypatch, lambda n: 0.0)
+    assert fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 1.0, n_min=9,
+                                 n_max=11).control_points.shape[0] == 9
+    assert set(calls) <= {9, 10, 11}
+    calls.clear()
+    ten = list(range(0, 520, 52))
+    result = fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 1.0, corners=ten)
+    assert result.control_points.shape[0] == 10 and min(calls) == 10
+    with pytest.raises(ValueError, match="n_min"):
+        fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 1.0, corners=ten, n_min=8)
+
+
+def test_counts_beyond_the_samples_are_refused_before_fitting(monkeypatch):
+    calls = scripted(monkeypatch, lambda n: 1.0)
+    with pytest.raises(ValueError, match="n_max=300.*at most 260"):
+        fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 1e-3, n_max=300)
+    with pytest.raises(ValueError, match="12 samples fit at most 6 control points.*n_min=8"):
+        fitting.fit_tolerance(CIRCLE[::47], js.CubicBSpline(), 1e-3, n_min=8)
+    assert calls == []
