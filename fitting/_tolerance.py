@@ -14,11 +14,14 @@ fall with n (a fit can stop in a poorer minimum at a larger n), so the result is
 smallest count *tried* that met the tolerance, not a certified minimum.
 """
 
+import bisect
 import math
 import warnings
 from collections.abc import Callable
 from typing import Literal
 
+import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
@@ -208,7 +211,8 @@ def fit_tolerance(
                 j = (max(below) + met[0]) // 2  # bisect the ladder between them
             else:  # predict down from the smallest that met, at most to half of it
                 wanted = counts[met[0]] * (errors[met[0]] / tolerance) ** (1 / exponent)
-                j = min(met[0] - 1, _index_at_most(counts, max(wanted, counts[met[0]] / 2)))
+                at_most = bisect.bisect_right(counts, max(wanted, counts[met[0]] / 2)) - 1
+                j = min(met[0] - 1, max(0, at_most))
         else:
             k = max(tried)
             if k == len(counts) - 1:
@@ -229,7 +233,8 @@ def fit_tolerance(
                     if fall > 0:
                         exponent = float(np.clip(fall, _STALL, 6.0))
             grow = (errors[k] / tolerance) ** (1 / exponent) if math.isfinite(errors[k]) else 2
-            j = max(k + 1, _index_at_least(counts, min(counts[k] * grow, 4 * counts[k])))
+            at_least = bisect.bisect_left(counts, min(counts[k] * grow, 4 * counts[k]))
+            j = max(k + 1, min(len(counts) - 1, at_least))
         attempt(j)
 
     met = [k for k in sorted(tried) if ok(k)]
@@ -261,26 +266,6 @@ def fit_tolerance(
     return result
 
 
-def _index_at_least(counts: list[int], value: float) -> int:
-    """The index of the smallest count >= value (the last if none)."""
-    for i, n in enumerate(counts):
-        if n >= value:
-            return i
-    return len(counts) - 1
-
-
-def _index_at_most(counts: list[int], value: float) -> int:
-    """The index of the largest count <= value (0 if none)."""
-    found = 0
-    for i, n in enumerate(counts):
-        if n <= value:
-            found = i
-    return found
-
-
 def _with_status(result: FitResult, status) -> FitResult:
-    import equinox as eqx
-    import jax.numpy as jnp
-
     code = jnp.asarray(status_code(status), result.status.dtype)
     return eqx.tree_at(lambda r: r.status, result, code)
