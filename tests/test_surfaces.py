@@ -414,6 +414,10 @@ tagged_meshes = [
     # A crease from the boundary ending inside: a dart at vertex 12.
     ("dart_cc", lambda: grid(4, 4), jss.CatmullClark(), dict(creases=[[2, 7], [7, 12]])),
     ("dart_loop", lambda: grid(4, 4, triangles=True), jss.Loop(), dict(creases=[[2, 7], [7, 12]])),
+    # An interior vertex of valence 2 (vertex 8), smooth and as a dart: the dart's
+    # position had kept the smooth formula because its tangents are not exact.
+    ("valence_two_cc", cube_with_valence_two_vertex, jss.CatmullClark(), {}),
+    ("valence_two_dart_cc", cube_with_valence_two_vertex, jss.CatmullClark(), dict(creases=[[0, 8]])),
     # Semi-sharp tags: the limit after the sharpness has decayed (#19).
     ("semi_sharp_cc", lambda: grid(4, 4), jss.CatmullClark(),
      dict(creases=[[i * 5 + 2, (i + 1) * 5 + 2] for i in range(4)], crease_sharpness=1.5,
@@ -436,8 +440,9 @@ def test_limit_positions_agree_with_deep_refinement(name, make, scheme, tags):
     np.testing.assert_allclose(again, limit, atol=1e-12)
     # Vertex points converge to it: the distance shrinks by the subdominant
     # eigenvalue (squared, at regular and crease vertices) per level, <= 1/4 here,
-    # once semi-sharp tags have decayed (2 levels for sharpness up to 2).
-    deep = np.asarray(jss.Refiner(mesh, scheme, 7 if mesh.semi_sharp else 5)(v))[:V]
+    # once semi-sharp tags have decayed (2 levels for sharpness up to 2); at valence
+    # 2 only by 0.39-0.46 (the subdominant eigenvalue itself).
+    deep = np.asarray(jss.Refiner(mesh, scheme, 7 if mesh.semi_sharp or "two" in name else 5)(v))[:V]
     scale = np.abs(v).max()
     np.testing.assert_allclose(deep, limit, atol=4e-4 * scale)
 
@@ -599,6 +604,65 @@ def test_dart_normals(scheme, triangles):
         estimate = face_normal_sum(np.asarray(jss.limit_positions(fine, scheme)), fine.faces, dart)
         errors.append(angle(estimate, normal))
     assert errors == sorted(errors, reverse=True) and errors[-1] < 0.25 * errors[0]
+
+
+def newell_normal_sum(points, faces, vertex):
+    """Normalized sum of the Newell normals of the faces at `vertex` (plain Python)."""
+    total = np.zeros(3)
+    for row in faces:
+        row = row[row >= 0].tolist()
+        if vertex in row:
+            for a, b in zip(row, row[1:] + row[:1]):
+                total += np.cross(points[a], points[b])
+    return total / np.linalg.norm(total)
+
+
+@pytest.mark.parametrize("creases", [[], [[0, 8]]], ids=["smooth", "dart"])
+def test_valence_two_vertex_has_no_tangent_plane(creases):
+    """An interior vertex of valence 2 has no tangent plane: `tangents` are zero there
+    and the normal is the documented approximation, the normalized sum of its two
+    faces' Newell normals of limit points (the corner cross products cancel, as both
+    faces have the same two neighbors). On the cube split through vertex 8 (symmetric
+    under the half turn about the x axis without the crease) that is the outward -x;
+    it had been the zero vector. The refined surface's faces at the vertex stay
+    within 1.2 degrees of it (levels 2, 4, 6)."""
+    v, f = cube_with_valence_two_vertex()
+    mesh = jss.Mesh(v, f, creases=creases)
+    limit = jss.Limit(mesh, jss.CatmullClark())
+    tu, tv = (np.asarray(t)[8] for t in limit.tangents(v))
+    np.testing.assert_array_equal(np.concatenate([tu, tv]), 0.0)
+    normal = np.asarray(limit.normals(v))[8]
+    want = newell_normal_sum(np.asarray(jss.limit_positions(mesh, jss.CatmullClark())), mesh.faces, 8)
+    np.testing.assert_allclose(normal, want, atol=1e-14)
+    if not creases:
+        np.testing.assert_allclose(normal, [-1, 0, 0], atol=1e-14)
+    for levels in (2, 4, 6):
+        fine = jss.refine_mesh(mesh, jss.CatmullClark(), levels)
+        points = np.asarray(jss.limit_positions(fine, jss.CatmullClark()))
+        assert angle(newell_normal_sum(points, fine.faces, 8), normal) < 1.2
+
+
+def test_loop_dart_of_valence_two():
+    """Two triangles glued along all three edges, one edge a crease: its two ends are
+    darts of valence 2, whose antisymmetric ring subspace is empty (this raised
+    IndexError). Positions are the left eigenvector of eigenvalue 1 of the 1-ring
+    matrix written here from Loop's rules (smooth vertex rule with beta(2) = 0.3046875,
+    crease edge midpoint, smooth edge rule whose two opposite vertices are both p_0)."""
+    v = np.random.default_rng(3).normal(size=(3, 3))
+    mesh = jss.Mesh(v, [[0, 1, 2], [2, 1, 0]], creases=[[0, 1]])
+    beta = (5 / 8 - (3 / 8 + np.cos(np.pi) / 4) ** 2) / 2
+    local = np.array([[1 - 2 * beta, beta, beta], [1 / 2, 1 / 2, 0], [3 / 8, 1 / 4, 3 / 8]])
+    values, vectors = np.linalg.eig(local.T)
+    mask = vectors[:, np.argmin(abs(values - 1))].real
+    mask /= mask.sum()
+    got = np.asarray(jss.limit_positions(mesh, jss.Loop()))
+    for dart, crease_end, other in ((0, 1, 2), (1, 0, 2)):
+        np.testing.assert_allclose(got[dart], mask @ v[[dart, crease_end, other]], atol=1e-14)
+    # The two faces are one triangle either way round: no normal (zero), not the
+    # direction of the rounding noise left when their cross products cancel.
+    limit = jss.Limit(mesh, jss.Loop())
+    np.testing.assert_array_equal(np.asarray(limit.tangents(v)[0]), 0.0)
+    np.testing.assert_array_equal(np.asarray(limit.normals(v)), 0.0)
 
 
 @pytest.mark.parametrize("scheme, triangles", [(jss.Loop(), True), (jss.CatmullClark(), False)])

@@ -7,7 +7,7 @@ from typing import ClassVar
 import equinox as eqx
 import numpy as np
 
-from ._stencil import Sparse
+from ._stencil import Sparse, _ranks
 from ._topology import CORNER, CREASE, SMOOTH, Topology
 
 
@@ -302,7 +302,12 @@ def dart_masks(matrix: np.ndarray, perm: np.ndarray):
     """
     _, position = dominant(matrix, symmetric_subspace(perm))
     lam_s, along = dominant(matrix, symmetric_subspace(perm), skip=1)
-    lam_a, across = dominant(matrix, antisymmetric_subspace(perm))
+    antisymmetric = antisymmetric_subspace(perm)
+    if antisymmetric.shape[1] == 0:
+        # Valence 2 (Loop): the mirror fixes the whole ring, so nothing crosses the
+        # crease edge and there is no tangent plane; the position is still exact.
+        return position / position.sum(), np.zeros(len(perm)), np.zeros(len(perm)), False
+    lam_a, across = dominant(matrix, antisymmetric)
     rest = list(np.linalg.eigvals(matrix))
     for target in (1.0, lam_s, lam_a):
         rest.pop(int(np.argmin(np.abs(np.array(rest) - target))))
@@ -342,7 +347,8 @@ def cross_tangent(matrix: np.ndarray, perm: np.ndarray, interior: np.ndarray):
     return mask, exact
 
 
-def sector_stencils(topo: Topology, position: Sparse, ring, local):
+def sector_stencils(topo: Topology, position: Sparse, ring, local,
+                    no_tangent_plane: np.ndarray | None = None):  # fmt: skip
     r"""Per-sector tangent stencils at the vertices on sharp edges (boundary or crease).
 
     For every sector (a fan of faces between two sharp edges, see
@@ -359,7 +365,9 @@ def sector_stencils(topo: Topology, position: Sparse, ring, local):
     - at a corner: the two sharp-edge tangents $p_0 - v$ and $p_k - v$ (the limit
       tangents of the crease curves at a clamped end), kind `CORNER_TANGENTS`;
       `APPROXIMATE` if the sector starts and ends on the same sharp edge;
-    - tagged corners on no sharp edge: the whole ring as one `APPROXIMATE` sector.
+    - tagged corners on no sharp edge, and the interior vertices in
+      `no_tangent_plane` (smooth or dart, e.g. of valence 2): the whole ring as one
+      `APPROXIMATE` sector.
 
     Also the face corners (previous, vertex, next; as rows of limit positions) of
     the non-`EXACT` sectors, for the orientation and the approximate normals.
@@ -428,11 +436,14 @@ def sector_stencils(topo: Topology, position: Sparse, ring, local):
                             np.concatenate(w_u + empty), (S, V))  # fmt: skip
     sector_v = Sparse.build(np.concatenate(rows_v + empty), np.concatenate(cols_v + empty),
                             np.concatenate(w_v + empty), (S, V))  # fmt: skip
-    # Tagged corners on no sharp edge: their whole ring is one approximate sector.
+    # Tagged corners on no sharp edge, and interior vertices without a tangent plane:
+    # their whole ring is one approximate sector.
     ring_order, ring_start = topo.ring()
     ring_counts = np.diff(ring_start)
-    lone = np.flatnonzero((topo.vertex_type != SMOOTH) & (ring_counts > 0))
-    lone = lone[topo.num_sharp()[lone] == 0]
+    lone = (topo.vertex_type != SMOOTH) & (ring_counts > 0) & (topo.num_sharp() == 0)
+    if no_tangent_plane is not None:
+        lone[no_tangent_plane] = True
+    lone = np.flatnonzero(lone)
     order = np.concatenate([order, ring_order[np.isin(topo.origin[ring_order], lone)]])
     counts = np.concatenate([counts, ring_counts[lone]])
     vertex = np.concatenate([vertex, lone])
@@ -446,38 +457,63 @@ def sector_stencils(topo: Topology, position: Sparse, ring, local):
     corner_sector = sector_of[kind[sector_of] != EXACT]
     ids = np.stack([topo.origin[topo.prev[h]], topo.origin[h], topo.origin[topo.next[h]]], 1)
     corner_points = position.take_rows(ids.reshape(-1))
+    if no_tangent_plane is not None and len(no_tangent_plane):
+        # At a vertex without a tangent plane (valence 2) both faces have the same two
+        # neighbors in opposite order, so the corner cross products cancel. Its
+        # faces' Newell normals (of the limit points) are used instead: one triple
+        # (next, face centroid, previous) per face edge, whose cross products sum to
+        # twice the face's vector area.
+        centre = np.flatnonzero(np.isin(ids[:, 1], no_tangent_plane))
+        f = topo.face[h[centre]]
+        edge_h = np.repeat(topo.offsets[f], topo.sizes[f]) + _ranks(topo.sizes[f])
+        face_of = np.repeat(np.arange(len(f)), topo.sizes[f])  # per triple: its face
+        size = topo.sizes[f[face_of]]
+        t = np.arange(len(edge_h))
+        rows = np.concatenate([3 * t, 3 * t + 2, np.repeat(3 * t + 1, size)])
+        cols = np.concatenate([
+            topo.origin[topo.next[edge_h]], topo.origin[edge_h],
+            topo.origin[np.repeat(topo.offsets[f[face_of]], size) + _ranks(size)],
+        ])  # fmt: skip
+        weights = np.concatenate([np.ones(2 * len(t)), np.repeat(1 / size, size)])
+        newell = Sparse.build(rows, cols, weights, (3 * len(t), V)) @ position
+        keep = ~np.isin(np.arange(len(h)), centre)
+        corner_points = Sparse.stack([
+            position.take_rows(ids[keep].reshape(-1)), newell
+        ])  # fmt: skip
+        corner_sector = np.concatenate([corner_sector[keep], corner_sector[centre][face_of]])
     return sector_u, sector_v, vertex, kind, corner_points, corner_sector
 
 
 def dart_stencils(topo: Topology, position: Sparse, tangent_u: Sparse, tangent_v: Sparse,
-                  ring, dart) -> tuple[Sparse, Sparse, Sparse]:  # fmt: skip
+                  ring, dart) -> tuple[Sparse, Sparse, Sparse, np.ndarray]:  # fmt: skip
     """Replace the smooth-formula rows of darts by the eigenvector masks of
     `dart_masks` (`dart(n) -> (matrix, perm)` on the ring `ring` without its repeated
-    closing neighbor), for the valences where they are exact."""
+    closing neighbor): the position at every dart, the tangents at the valences where
+    they span the tangent plane. Also returns the darts where they do not (valence 2),
+    whose tangent rows are left for the caller to drop."""
     V = topo.num_vertices
     order, start = topo.sectors()
     counts = np.diff(start)
     first = order[start[:-1]]
     darts = np.flatnonzero(topo.vertex_type[topo.origin[first]] == SMOOTH)
     rows, cols, weights = [[], [], []], [[], [], []], [[], [], []]
-    done = []
+    done, no_plane = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     for n in np.unique(counts[darts]):  # one pass per dart valence
         sel = darts[counts[darts] == n]
         half = order[start[sel][:, None] + np.arange(n)]
         ring_cols = np.delete(ring(topo, half), n + 1, axis=1)  # p_n = p_0 again
         *masks, exact = dart_masks(*dart(int(n)))
-        if not exact:
-            continue
         v = topo.origin[half[:, 0]]
         done.append(v)
-        for t, mask in enumerate(masks):
+        if not exact:
+            no_plane.append(v)
+        for t, mask in enumerate(masks if exact else masks[:1]):
             rows[t].append(np.repeat(v, ring_cols.shape[1]))
             cols[t].append(ring_cols.reshape(-1))
             weights[t].append(np.tile(mask, len(v)))
-    if not done:
-        return position, tangent_u, tangent_v
     replaced = np.zeros(V, bool)
     replaced[np.concatenate(done)] = True
+    no_plane = np.concatenate(no_plane)
 
     def replace(table: Sparse, t: int) -> Sparse:
         keep = ~replaced[table.rows]
@@ -488,7 +524,7 @@ def dart_stencils(topo: Topology, position: Sparse, tangent_u: Sparse, tangent_v
             table.shape,
         )
 
-    return replace(position, 0), replace(tangent_u, 1), replace(tangent_v, 2)
+    return replace(position, 0), replace(tangent_u, 1), replace(tangent_v, 2), no_plane
 
 
 def limit_stencils(topo: Topology, position: Sparse, tangent_u: Sparse, tangent_v: Sparse,
@@ -498,9 +534,23 @@ def limit_stencils(topo: Topology, position: Sparse, tangent_u: Sparse, tangent_
     a boundary vertex with one exact sector also gets its two tangents as its
     `tangent_u`, `tangent_v` rows."""
     V = topo.num_vertices
+    # An interior vertex of valence 2 has no tangent plane (nearby normals tend to
+    # different limits along different rays), smooth or dart: its closed-form tangents
+    # vanish or are rounding noise, so its normal is approximated like a sector's.
+    no_plane = np.zeros(V, bool)
+    no_plane[(topo.vertex_type == SMOOTH) & ~topo.boundary_vertex & (topo.valence == 2)] = True
     if dart is not None:
-        position, tangent_u, tangent_v = dart_stencils(topo, position, tangent_u, tangent_v, ring, dart)
-    su, sv, vertex, kind, corner_points, corner_sector = sector_stencils(topo, position, ring, local)
+        position, tangent_u, tangent_v, inexact = dart_stencils(
+            topo, position, tangent_u, tangent_v, ring, dart
+        )
+        no_plane[inexact] = True
+    tangent_u, tangent_v = (
+        Sparse.build(*(x[~no_plane[t.rows]] for x in (t.rows, t.cols, t.weights)), t.shape)
+        for t in (tangent_u, tangent_v)
+    )
+    su, sv, vertex, kind, corner_points, corner_sector = sector_stencils(
+        topo, position, ring, local, np.flatnonzero(no_plane)
+    )
     per_vertex = np.bincount(vertex, minlength=V)
     single = np.flatnonzero((kind == EXACT) & (per_vertex[vertex] == 1))
 
@@ -514,7 +564,7 @@ def limit_stencils(topo: Topology, position: Sparse, tangent_u: Sparse, tangent_
         )
 
     return LimitStencils(
-        position, merge(tangent_u, su), merge(tangent_v, sv), topo.vertex_type == SMOOTH,
+        position, merge(tangent_u, su), merge(tangent_v, sv), (topo.vertex_type == SMOOTH) & ~no_plane,
         su, sv, vertex, kind, corner_points, corner_sector,
     )  # fmt: skip
 

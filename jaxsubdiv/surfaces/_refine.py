@@ -394,9 +394,11 @@ class Limit(eqx.Module):
 
     Positions are exact at every vertex. Normals (`docs/surfaces.md` has the table):
 
-    - *smooth* vertices, any valence: exact, from the closed-form tangent stencils;
-      at *darts* (interior, on one crease edge) from the eigenvectors of the dart's
-      local subdivision matrix (positions too);
+    - *smooth* vertices of valence 3 and more: exact, from the closed-form tangent
+      stencils; at *darts* (interior, on one crease edge) from the eigenvectors of the
+      dart's local subdivision matrix (positions too, at every valence);
+    - interior vertices of valence 2, smooth or dart: no tangent plane exists; the
+      normalized sum of the two faces' Newell normals of limit points, zero tangents;
     - boundary and crease vertices: each *sector* (the faces between the two sharp
       edges on one side) has its own limit tangent plane, spanned by the crease curve's
       tangent $p_0 - p_k$ and a cross tangent, the dominant symmetric left eigenvector
@@ -508,9 +510,13 @@ def _normals(limit: Limit, vertices: Float[Array, "*batch V 3"]) -> Float[Array,
     points = limit.corner_points(vertices)
     points = points.reshape(*points.shape[:-2], limit.corner_sector.shape[0], 3, 3)
     prev, center, nxt = points[..., 0, :], points[..., 1, :], points[..., 2, :]
-    approx = jnp.zeros_like(sector).at[..., limit.corner_sector, :].add(
-        jnp.cross(nxt - center, prev - center)
-    )
+    corners = jnp.cross(nxt - center, prev - center)
+    approx = jnp.zeros_like(sector).at[..., limit.corner_sector, :].add(corners)
+    # Terms that cancel (the two faces of a pillow are one triangle, either way round)
+    # leave rounding noise, which must give no normal rather than a random one.
+    magnitude = jnp.zeros_like(sector).at[..., limit.corner_sector, :].add(jnp.abs(corners))
+    noise = 16 * jnp.finfo(sector.dtype).eps * jnp.sum(magnitude, -1, keepdims=True)
+    approx = jnp.where(jnp.sum(jnp.abs(approx), -1, keepdims=True) <= noise, 0.0, approx)
     kind = limit.sector_kind[:, None]
     flip = (kind == CORNER_TANGENTS) & (jnp.sum(sector * approx, -1, keepdims=True) < 0)
     sector = jnp.where(flip, -sector, sector)
