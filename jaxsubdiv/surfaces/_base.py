@@ -40,7 +40,7 @@ class LimitStencils:
     sector_v: Sparse
     sector_vertex: np.ndarray  # (S,) the vertex of each sector
     sector_kind: np.ndarray  # (S,) EXACT, CORNER_TANGENTS or APPROXIMATE
-    corner_points: Sparse  # (3T, V) limit points (prev, vertex, next) of face corners
+    corner_points: Sparse  # (3T, V) limit points (prev, vertex, next) of face corners (Newell triples at valence 2)
     corner_sector: np.ndarray  # (T,) the sector of each such face corner
 
     def compose(self, keep: np.ndarray, first: Sparse) -> "LimitStencils":
@@ -370,7 +370,10 @@ def sector_stencils(topo: Topology, position: Sparse, ring, local,
       `APPROXIMATE` sector.
 
     Also the face corners (previous, vertex, next; as rows of limit positions) of
-    the non-`EXACT` sectors, for the orientation and the approximate normals.
+    the non-`EXACT` sectors, for the orientation and the approximate normals; at an
+    interior vertex of valence 2, whose two corners' cross products cancel, one
+    triple (next, face centroid, vertex) per edge of each of its faces instead, so that
+    the sum is their Newell normals.
     """
     V = topo.num_vertices
     order, start = topo.sectors()
@@ -457,13 +460,14 @@ def sector_stencils(topo: Topology, position: Sparse, ring, local,
     corner_sector = sector_of[kind[sector_of] != EXACT]
     ids = np.stack([topo.origin[topo.prev[h]], topo.origin[h], topo.origin[topo.next[h]]], 1)
     corner_points = position.take_rows(ids.reshape(-1))
-    if no_tangent_plane is not None and len(no_tangent_plane):
-        # At a vertex without a tangent plane (valence 2) both faces have the same two
-        # neighbors in opposite order, so the corner cross products cancel. Its
-        # faces' Newell normals (of the limit points) are used instead: one triple
-        # (next, face centroid, previous) per face edge, whose cross products sum to
-        # twice the face's vector area.
-        centre = np.flatnonzero(np.isin(ids[:, 1], no_tangent_plane))
+    valence_two = ~topo.boundary_vertex & (topo.valence == 2)
+    centre = np.flatnonzero(valence_two[ids[:, 1]])
+    if len(centre):
+        # At an interior vertex of valence 2 (smooth, dart or tagged corner) both faces
+        # have the same two neighbors in opposite order, so the corner cross products
+        # cancel. Its faces' Newell normals (of the limit points) are used instead: one
+        # triple (next, face centroid, previous) per face edge, whose cross products
+        # sum to twice the face's vector area.
         f = topo.face[h[centre]]
         edge_h = np.repeat(topo.offsets[f], topo.sizes[f]) + _ranks(topo.sizes[f])
         face_of = np.repeat(np.arange(len(f)), topo.sizes[f])  # per triple: its face
@@ -489,13 +493,15 @@ def dart_stencils(topo: Topology, position: Sparse, tangent_u: Sparse, tangent_v
     """Replace the smooth-formula rows of darts by the eigenvector masks of
     `dart_masks` (`dart(n) -> (matrix, perm)` on the ring `ring` without its repeated
     closing neighbor): the position at every dart, the tangents at the valences where
-    they span the tangent plane. Also returns the darts where they do not (valence 2),
-    whose tangent rows are left for the caller to drop."""
+    they span the tangent plane (elsewhere the dart has no tangent rows). Also returns
+    the darts where they do not (valence 2)."""
     V = topo.num_vertices
     order, start = topo.sectors()
     counts = np.diff(start)
     first = order[start[:-1]]
     darts = np.flatnonzero(topo.vertex_type[topo.origin[first]] == SMOOTH)
+    if len(darts) == 0:
+        return position, tangent_u, tangent_v, np.zeros(0, np.int64)
     rows, cols, weights = [[], [], []], [[], [], []], [[], [], []]
     done, no_plane = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     for n in np.unique(counts[darts]):  # one pass per dart valence
@@ -544,10 +550,11 @@ def limit_stencils(topo: Topology, position: Sparse, tangent_u: Sparse, tangent_
             topo, position, tangent_u, tangent_v, ring, dart
         )
         no_plane[inexact] = True
-    tangent_u, tangent_v = (
-        Sparse.build(*(x[~no_plane[t.rows]] for x in (t.rows, t.cols, t.weights)), t.shape)
-        for t in (tangent_u, tangent_v)
-    )
+    if np.any(no_plane):
+        tangent_u, tangent_v = (
+            Sparse.build(*(x[~no_plane[t.rows]] for x in (t.rows, t.cols, t.weights)), t.shape)
+            for t in (tangent_u, tangent_v)
+        )
     su, sv, vertex, kind, corner_points, corner_sector = sector_stencils(
         topo, position, ring, local, np.flatnonzero(no_plane)
     )

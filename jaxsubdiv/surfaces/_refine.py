@@ -397,8 +397,9 @@ class Limit(eqx.Module):
     - *smooth* vertices of valence 3 and more: exact, from the closed-form tangent
       stencils; at *darts* (interior, on one crease edge) from the eigenvectors of the
       dart's local subdivision matrix (positions too, at every valence);
-    - interior vertices of valence 2, smooth or dart: no tangent plane exists; the
-      normalized sum of the two faces' Newell normals of limit points, zero tangents;
+    - interior vertices of valence 2 (smooth, dart or tagged corner): no tangent
+      plane exists; the normalized sum of the two faces' Newell normals of limit
+      points, zero tangents;
     - boundary and crease vertices: each *sector* (the faces between the two sharp
       edges on one side) has its own limit tangent plane, spanned by the crease curve's
       tangent $p_0 - p_k$ and a cross tangent, the dominant symmetric left eigenvector
@@ -418,7 +419,8 @@ class Limit(eqx.Module):
     - other sectors (more faces than above): the approximation of the normalized sum
       of the cross products of the limit positions' face edges.
 
-    `tangents` returns the two exact tangents at smooth vertices and at boundary
+    `tangents` returns the two exact tangents at smooth vertices (valence 3 and
+    more) and at boundary
     vertices with an exact sector (along the boundary, across it), zeros elsewhere.
 
     Available for `Loop()` and `CatmullClark()`.
@@ -480,9 +482,9 @@ class Limit(eqx.Module):
     ) -> tuple[Float[Array, "*batch V C"], Float[Array, "*batch V C"]]:
         """Two limit tangent vectors per vertex (unnormalized).
 
-        Exact at smooth vertices and at boundary vertices whose sector has a tangent
-        plane (there: along the boundary, and across it into the surface); zero
-        elsewhere. Their cross product points to the side the faces' counter-clockwise
+        Exact at smooth vertices of valence 3 and more and at boundary vertices whose
+        sector has a tangent plane (there: along the boundary, and across it into the
+        surface); zero elsewhere. Their cross product points to the side the faces' counter-clockwise
         orientation points to.
         """
         return self.tangent_u(vertices), self.tangent_v(vertices)
