@@ -622,8 +622,8 @@ def newell_normal_sum(points, faces, vertex):
 def test_valence_two_vertex_has_no_tangent_plane(tags):
     """An interior vertex of valence 2 has no tangent plane: `tangents` are zero there
     and the normal is the documented approximation, the normalized sum of its two
-    faces' Newell normals of limit points (the corner cross products cancel, as both
-    faces have the same two neighbors; a tagged corner's normal was zero). On the
+    faces' Newell normals of limit points (the corner cross products, which a tagged
+    corner's normal had used, cancel: both faces have the same two neighbors). On the
     cube split through vertex 8 (symmetric under the half turn about the x axis
     without the crease) that is the outward -x. The refined surface's faces at the
     vertex stay within 1.2 degrees of it (levels 2, 4, 6)."""

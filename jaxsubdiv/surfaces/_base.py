@@ -371,8 +371,8 @@ def sector_stencils(topo: Topology, position: Sparse, ring, local,
 
     Also the face corners (previous, vertex, next; as rows of limit positions) of
     the non-`EXACT` sectors, for the orientation and the approximate normals; at an
-    interior vertex of valence 2, whose two corners' cross products cancel, one
-    triple (next, face centroid, vertex) per edge of each of its faces instead, so that
+    interior vertex of valence 2, whose two corners' cross products cancel, for each
+    edge (a, b) of each of its faces the triple (b, face centroid, a) instead, so that
     the sum is their Newell normals.
     """
     V = topo.num_vertices
@@ -465,9 +465,9 @@ def sector_stencils(topo: Topology, position: Sparse, ring, local,
     if len(centre):
         # At an interior vertex of valence 2 (smooth, dart or tagged corner) both faces
         # have the same two neighbors in opposite order, so the corner cross products
-        # cancel. Its faces' Newell normals (of the limit points) are used instead: one
-        # triple (next, face centroid, previous) per face edge, whose cross products
-        # sum to twice the face's vector area.
+        # cancel. Its faces' Newell normals (of the limit points) are used instead: for
+        # each face edge (a, b) the triple (b, face centroid, a), whose cross products
+        # (next - centre) x (previous - centre) sum to twice the face's vector area.
         f = topo.face[h[centre]]
         edge_h = np.repeat(topo.offsets[f], topo.sizes[f]) + _ranks(topo.sizes[f])
         face_of = np.repeat(np.arange(len(f)), topo.sizes[f])  # per triple: its face
@@ -480,7 +480,8 @@ def sector_stencils(topo: Topology, position: Sparse, ring, local,
         ])  # fmt: skip
         weights = np.concatenate([np.ones(2 * len(t)), np.repeat(1 / size, size)])
         newell = Sparse.build(rows, cols, weights, (3 * len(t), V)) @ position
-        keep = ~np.isin(np.arange(len(h)), centre)
+        keep = np.ones(len(h), bool)
+        keep[centre] = False
         corner_points = Sparse.stack([
             position.take_rows(ids[keep].reshape(-1)), newell
         ])  # fmt: skip

@@ -420,8 +420,8 @@ class Limit(eqx.Module):
       of the cross products of the limit positions' face edges.
 
     `tangents` returns the two exact tangents at smooth vertices (valence 3 and
-    more) and at boundary
-    vertices with an exact sector (along the boundary, across it), zeros elsewhere.
+    more) and at boundary vertices with an exact sector (along the boundary, across
+    it), zeros elsewhere.
 
     Available for `Loop()` and `CatmullClark()`.
     """
@@ -484,8 +484,8 @@ class Limit(eqx.Module):
 
         Exact at smooth vertices of valence 3 and more and at boundary vertices whose
         sector has a tangent plane (there: along the boundary, and across it into the
-        surface); zero elsewhere. Their cross product points to the side the faces' counter-clockwise
-        orientation points to.
+        surface); zero elsewhere. Their cross product points to the side the faces'
+        counter-clockwise orientation points to.
         """
         return self.tangent_u(vertices), self.tangent_v(vertices)
 
