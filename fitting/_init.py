@@ -93,20 +93,33 @@ def second_differences(n: int, closed: bool, dtype, creases=None) -> Array:
     return eye[:-2] - 2 * eye[1:-1] + eye[2:]
 
 
+#: A piece of outline between two corners is *bent* (it gets at least two spans, one
+#: free control point between its creases) when a sample lies farther than this many
+#: mean sample spacings from the chord between the corners. One span between creases
+#: is a straight segment; the pixel staircase of a straight edge strays well under one
+#: spacing from it.
+BENT_SPACINGS = 2.0
+
+
 def corner_creases(
     target: Float[Array, "m d"], corners: Bool[Array, " m"], n: int
 ) -> tuple[Bool[Array, " n"], Float[Array, " m"]]:
     """The creased control points for a closed outline's corner samples, and every
     sample's starting position along the curve (in control-point units, `[0, n)`).
 
-    The corners (flags on the samples, in their canonical order) are given control
-    points in proportion to the arc length between them: corner `j`, at chord-length
-    fraction `u_j` of the outline from the first corner, gets control point
-    `round(n u_j)`, moved on where two would coincide (cumulative maxima keep them
-    strictly increasing, and each is capped at `n - K + j` for K corners, so K <= n
-    always fit), the first at 0. A sample between corners `j` and `j + 1`
-    starts at the chord-length position between their control points, so every corner
-    sample starts exactly at its crease. Traceable: the corners are data.
+    The corners (flags on the samples, in their canonical order) split the outline into
+    pieces, and the `n` spans of the curve are shared among the pieces in proportion to
+    their arc length, corner `j` at control point `round(n u_j)`, `u_j` the chord-length
+    fraction of the outline from the first corner to corner `j`. One span between two
+    creases is a straight segment, so a *bent* piece (a sample farther than
+    `BENT_SPACINGS` mean sample spacings from the chord between its corners) whose
+    share is below two gets two, and the other pieces share the rest by arc length
+    (`_piece_spans`; corner `j` then at the rounded sum of the spans before it).
+    Cumulative maxima keep the creases strictly increasing (a straight piece's share
+    below one is moved on to one), and each is capped at `n - K + j` for K corners, so
+    K <= n always fit. A sample between corners
+    `j` and `j + 1` starts at the chord-length position between their control points,
+    so every corner sample starts exactly at its crease. Traceable: the corners are data.
     """
     m = target.shape[0]
     first = jnp.argmax(corners)
@@ -119,13 +132,15 @@ def corner_creases(
     j = jnp.arange(m)
     real = j < count
     at = jnp.where(real, u[order], 1.0)
-    raw = jnp.round(n * at).astype(jnp.int32)
+    # Each sample's piece: the last corner at or before it (in u).
+    piece = jnp.clip(jnp.searchsorted(at, u, side="right") - 1, 0, jnp.maximum(count - 1, 0))
+    spans = _piece_spans(target, order, at, real, count, piece, n)
+    before = jnp.concatenate([jnp.zeros((1,), spans.dtype), jnp.cumsum(spans)[:-1]])
+    raw = jnp.floor(before + 0.5).astype(jnp.int32)
     index = jax.lax.cummax(jnp.where(real, raw - j, -m)) + j
     index = jnp.minimum(index, n - count + j)
     index = jnp.where(j == 0, 0, index)
     creases = jnp.zeros((n,), bool).at[jnp.where(real, index, n)].set(True, mode="drop")
-    # Each sample's piece: the last corner at or before it (in u).
-    piece = jnp.clip(jnp.searchsorted(at, u, side="right") - 1, 0, jnp.maximum(count - 1, 0))
     start_u, start_c = at[piece], index[piece]
     last = piece + 1 >= count
     end_u = jnp.where(last, 1.0, at[jnp.minimum(piece + 1, m - 1)])
@@ -135,6 +150,48 @@ def corner_creases(
     # No corner (all at samples of weight 0): no crease, and the plain chord positions.
     plain = chord_fractions(target, True) * n
     return creases, jnp.where(count > 0, start_c + (end_c - start_c) * share, plain)
+
+
+def _piece_spans(target, order, at, real, count, piece, n: int) -> Float[Array, " m"]:
+    """The (fractional) spans of the curve for each piece between corners (`corner_creases`),
+    summing to `n`: in proportion to arc length, and at least 2 for a bent piece (unless
+    that leaves fewer than one for each straight piece)."""
+    m = target.shape[0]
+    j = jnp.arange(m)
+    fraction = jnp.where(real, jnp.diff(at, append=jnp.ones((1,), at.dtype)), 0.0)
+    # The chord of every piece, from its corner to the next (the last back to the first).
+    start = target[order]
+    end = target[jnp.where(j + 1 < count, order[jnp.minimum(j + 1, m - 1)], order[0])]
+    a, b = start[piece], end[piece]
+    chord = b - a
+    length2 = jnp.sum(chord**2, -1)
+    t = jnp.clip(jnp.sum((target - a) * chord, -1) / jnp.where(length2 > 0, length2, 1.0), 0, 1)
+    off = jnp.sqrt(jnp.sum((target - a - t[:, None] * chord) ** 2, -1))
+    deviation = jax.ops.segment_max(off, piece, num_segments=m)
+    gaps = jnp.sqrt(jnp.sum((jnp.roll(target, -1, axis=0) - target) ** 2, -1))
+    spacing = jnp.sum(gaps) / jnp.maximum(jnp.sum(gaps > 0), 1)
+    bent = real & (deviation > BENT_SPACINGS * spacing)
+    # Straight pieces: no floor here (the rounding in `corner_creases` gives each at least
+    # one span), so that where no bent piece falls short the spans are n times the arc
+    # fractions, as without floors. No floors either where they and one span for each
+    # straight piece do not fit in n.
+    floor = jnp.where(bent, 2.0, 0.0)
+    floor = jnp.where(jnp.sum(floor) + jnp.sum(real & ~bent) > n, 0.0, floor)
+
+    def shares(fixed):
+        budget = n - jnp.sum(jnp.where(fixed, floor, 0.0))
+        free = jnp.sum(jnp.where(fixed, 0.0, fraction))
+        return jnp.where(fixed, floor, budget * fraction / jnp.where(free > 0, free, 1.0))
+
+    def grow(state):
+        fixed, _ = state
+        more = fixed | (real & (shares(fixed) < floor))
+        return more, jnp.any(more != fixed)
+
+    # Fixing a piece at its floor only shrinks the others' shares: the fixed set grows
+    # to a fixed point within `count` rounds (in practice two or three).
+    fixed, _ = jax.lax.while_loop(lambda s: s[1], grow, (jnp.zeros((m,), bool), jnp.array(True)))
+    return shares(fixed)
 
 
 def canonical_order(target: Float[Array, "m d"], count=None) -> Int[Array, " m"]:
