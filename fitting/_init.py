@@ -113,8 +113,9 @@ def corner_creases(
     fraction of the outline from the first corner to corner `j`. One span between two
     creases is a straight segment, so a *bent* piece (a sample farther than
     `BENT_SPACINGS` mean sample spacings from the chord between its corners) whose
-    share is below two gets two, and the other pieces share the rest by arc length
-    (`_piece_spans`; corner `j` then at the rounded sum of the spans before it).
+    share is below two gets two; then every bent piece gets at least two spans and every
+    straight one at least one, and the pieces above their floors share the rest by arc
+    length (`_piece_spans`; corner `j` then at the rounded sum of the spans before it).
     Cumulative maxima keep the creases strictly increasing (a straight piece's share
     below one is moved on to one), and each is capped at `n - K + j` for K corners, so
     K <= n always fit. A sample between corners
@@ -154,8 +155,8 @@ def corner_creases(
 
 def _piece_spans(target, order, at, real, count, piece, n: int) -> Float[Array, " m"]:
     """The (fractional) spans of the curve for each piece between corners (`corner_creases`),
-    summing to `n`: in proportion to arc length, and at least 2 for a bent piece (unless
-    that leaves fewer than one for each straight piece)."""
+    summing to `n`: in proportion to arc length, and where that gives a bent piece less
+    than 2, at least 2 for every bent piece and 1 for every straight one (if they fit)."""
     m = target.shape[0]
     j = jnp.arange(m)
     fraction = jnp.where(real, jnp.diff(at, append=jnp.ones((1,), at.dtype)), 0.0)
@@ -171,12 +172,13 @@ def _piece_spans(target, order, at, real, count, piece, n: int) -> Float[Array, 
     gaps = jnp.sqrt(jnp.sum((jnp.roll(target, -1, axis=0) - target) ** 2, -1))
     spacing = jnp.sum(gaps) / jnp.maximum(jnp.sum(gaps > 0), 1)
     bent = real & (deviation > BENT_SPACINGS * spacing)
-    # Straight pieces: no floor here (the rounding in `corner_creases` gives each at least
-    # one span), so that where no bent piece falls short the spans are n times the arc
-    # fractions, as without floors. No floors either where they and one span for each
-    # straight piece do not fit in n.
-    floor = jnp.where(bent, 2.0, 0.0)
-    floor = jnp.where(jnp.sum(floor) + jnp.sum(real & ~bent) > n, 0.0, floor)
+    floor = jnp.where(bent, 2.0, jnp.where(real, 1.0, 0.0))
+    # Floors only where a bent piece falls short (else the spans are n times the arc
+    # fractions, as without floors) and they fit in n. Then every piece has one,
+    # straight ones too: `corner_creases` moves a straight piece's share below one on
+    # to one, which would take that span from its bent neighbour.
+    short = jnp.any(bent & (n * fraction < 2.0)) & (jnp.sum(floor) <= n)
+    floor = jnp.where(short, floor, 0.0)
 
     def shares(fixed):
         budget = n - jnp.sum(jnp.where(fixed, floor, 0.0))
