@@ -93,11 +93,12 @@ def second_differences(n: int, closed: bool, dtype, creases=None) -> Array:
     return eye[:-2] - 2 * eye[1:-1] + eye[2:]
 
 
-#: A piece of outline between two corners is *bent* (it gets at least two spans, one
-#: free control point between its creases) when a sample lies farther than this many
-#: mean sample spacings from the chord between the corners. One span between creases
-#: is a straight segment; the pixel staircase of a straight edge strays well under one
-#: spacing from it.
+#: A piece of outline between two corners is *bent* when a sample lies farther than
+#: this many mean sample spacings from the chord between the corners. One span between
+#: two creases is a straight segment, so a bent piece needs at least two. The pixel
+#: staircase of a straight edge strays well under one spacing from its chord; below
+#: two spacings the samples cannot tell a bend from a straight edge (a 20-degree arc of
+#: radius 1, sagitta 0.015, is bent at 400 samples along its sector, not at 100).
 BENT_SPACINGS = 2.0
 
 
@@ -109,18 +110,23 @@ def corner_creases(
 
     The corners (flags on the samples, in their canonical order) split the outline into
     pieces, and the `n` spans of the curve are shared among the pieces in proportion to
-    their arc length, corner `j` at control point `round(n u_j)`, `u_j` the chord-length
-    fraction of the outline from the first corner to corner `j`. One span between two
-    creases is a straight segment, so a *bent* piece (a sample farther than
-    `BENT_SPACINGS` mean sample spacings from the chord between its corners) whose
-    share is below two gets two; then every bent piece gets at least two spans and every
-    straight one at least one, and the pieces above their floors share the rest by arc
-    length (`_piece_spans`; corner `j` then at the rounded sum of the spans before it).
-    Cumulative maxima keep the creases strictly increasing (a straight piece's share
-    below one is moved on to one), and each is capped at `n - K + j` for K corners, so
-    K <= n always fit. A sample between corners
-    `j` and `j + 1` starts at the chord-length position between their control points,
-    so every corner sample starts exactly at its crease. Traceable: the corners are data.
+    their arc length: corner `j` at control point `round(n u_j)`, `u_j` the
+    chord-length fraction of the outline from the first corner to corner `j`, the first
+    at 0. Cumulative maxima keep the creases strictly increasing (a piece rounded to no
+    span gets one, from the next piece), and each is capped at `n - K + j` for K
+    corners, so K <= n always fit.
+
+    One span between two creases is a straight segment. Where that rule leaves a *bent*
+    piece (`BENT_SPACINGS`) fewer than two spans, every bent piece gets at least two and
+    every straight one at least one, if they fit in `n`, and the pieces above these
+    floors share the rest by arc length (`_least_spans`, `_floored_spans`); corner `j`
+    is then at the rounded sum of the spans before it, and with every share at or above
+    its floor the rounding keeps the floors. Elsewhere the result is the rule above,
+    unchanged.
+
+    A sample between corners `j` and `j + 1` starts at the chord-length position between
+    their control points, so every corner sample starts exactly at its crease.
+    Traceable: the corners are data.
     """
     m = target.shape[0]
     first = jnp.argmax(corners)
@@ -135,12 +141,20 @@ def corner_creases(
     at = jnp.where(real, u[order], 1.0)
     # Each sample's piece: the last corner at or before it (in u).
     piece = jnp.clip(jnp.searchsorted(at, u, side="right") - 1, 0, jnp.maximum(count - 1, 0))
-    spans = _piece_spans(target, order, at, real, count, piece, n)
-    before = jnp.concatenate([jnp.zeros((1,), spans.dtype), jnp.cumsum(spans)[:-1]])
-    raw = jnp.floor(before + 0.5).astype(jnp.int32)
-    index = jax.lax.cummax(jnp.where(real, raw - j, -m)) + j
-    index = jnp.minimum(index, n - count + j)
-    index = jnp.where(j == 0, 0, index)
+
+    def place(raw):
+        index = jax.lax.cummax(jnp.where(real, raw - j, -m)) + j
+        index = jnp.minimum(index, n - count + j)
+        return jnp.where(j == 0, 0, index)
+
+    index = place(jnp.round(n * at).astype(jnp.int32))
+    least = _least_spans(target, order, real, count, piece)
+    spans = jnp.where(real, jnp.diff(index, append=n), 0)  # (the last piece ends at n)
+    short = jnp.any(real & (spans < least)) & (jnp.sum(least) <= n)
+    fraction = jnp.where(real, jnp.diff(at, append=jnp.ones((1,), at.dtype)), 0.0)
+    floored = _floored_spans(fraction, least, real, n)
+    before = jnp.concatenate([jnp.zeros((1,), floored.dtype), jnp.cumsum(floored)[:-1]])
+    index = jnp.where(short, place(jnp.floor(before + 0.5).astype(jnp.int32)), index)
     creases = jnp.zeros((n,), bool).at[jnp.where(real, index, n)].set(True, mode="drop")
     start_u, start_c = at[piece], index[piece]
     last = piece + 1 >= count
@@ -153,46 +167,55 @@ def corner_creases(
     return creases, jnp.where(count > 0, start_c + (end_c - start_c) * share, plain)
 
 
-def _piece_spans(target, order, at, real, count, piece, n: int) -> Float[Array, " m"]:
-    """The (fractional) spans of the curve for each piece between corners (`corner_creases`),
-    summing to `n`: in proportion to arc length, and where that gives a bent piece less
-    than 2, at least 2 for every bent piece and 1 for every straight one (if they fit)."""
+def _least_spans(
+    target: Float[Array, "m d"],
+    order: Int[Array, " m"],
+    real: Bool[Array, " m"],
+    count: Int[Array, ""],
+    piece: Int[Array, " m"],
+) -> Int[Array, " m"]:
+    """The fewest spans each piece between corners needs (`corner_creases`): 2 where it
+    is bent (a sample more than `BENT_SPACINGS` mean sample spacings from the chord
+    between its corners), 1 where it is straight, 0 past the `count` pieces."""
     m = target.shape[0]
     j = jnp.arange(m)
-    fraction = jnp.where(real, jnp.diff(at, append=jnp.ones((1,), at.dtype)), 0.0)
     # The chord of every piece, from its corner to the next (the last back to the first).
     start = target[order]
     end = target[jnp.where(j + 1 < count, order[jnp.minimum(j + 1, m - 1)], order[0])]
-    a, b = start[piece], end[piece]
-    chord = b - a
+    a, chord = start[piece], (end - start)[piece]
     length2 = jnp.sum(chord**2, -1)
     t = jnp.clip(jnp.sum((target - a) * chord, -1) / jnp.where(length2 > 0, length2, 1.0), 0, 1)
     off = jnp.sqrt(jnp.sum((target - a - t[:, None] * chord) ** 2, -1))
     deviation = jax.ops.segment_max(off, piece, num_segments=m)
     gaps = jnp.sqrt(jnp.sum((jnp.roll(target, -1, axis=0) - target) ** 2, -1))
-    spacing = jnp.sum(gaps) / jnp.maximum(jnp.sum(gaps > 0), 1)
-    bent = real & (deviation > BENT_SPACINGS * spacing)
-    floor = jnp.where(bent, 2.0, jnp.where(real, 1.0, 0.0))
-    # Floors only where a bent piece falls short (else the spans are n times the arc
-    # fractions, as without floors) and they fit in n. Then every piece has one,
-    # straight ones too: `corner_creases` moves a straight piece's share below one on
-    # to one, which would take that span from its bent neighbour.
-    short = jnp.any(bent & (n * fraction < 2.0)) & (jnp.sum(floor) <= n)
-    floor = jnp.where(short, floor, 0.0)
+    spacing = jnp.sum(gaps) / jnp.maximum(jnp.sum(gaps > 0), 1)  # (padding has no gaps)
+    bent = deviation > BENT_SPACINGS * spacing
+    return jnp.where(real, jnp.where(bent, 2, 1), 0)
+
+
+def _floored_spans(
+    fraction: Float[Array, " m"], least: Int[Array, " m"], real: Bool[Array, " m"], n: int
+) -> Float[Array, " m"]:
+    """`n` spans shared in proportion to the pieces' arc-length `fraction`s, each piece
+    at least its `least` (which must sum to at most `n`): the pieces whose share falls
+    below their floor get the floor, and the others share the rest."""
+    least = least.astype(fraction.dtype)
 
     def shares(fixed):
-        budget = n - jnp.sum(jnp.where(fixed, floor, 0.0))
+        budget = n - jnp.sum(jnp.where(fixed, least, 0.0))
         free = jnp.sum(jnp.where(fixed, 0.0, fraction))
-        return jnp.where(fixed, floor, budget * fraction / jnp.where(free > 0, free, 1.0))
+        return jnp.where(fixed, least, budget * fraction / jnp.where(free > 0, free, 1.0))
 
     def grow(state):
         fixed, _ = state
-        more = fixed | (real & (shares(fixed) < floor))
+        more = fixed | (real & (shares(fixed) < least))
         return more, jnp.any(more != fixed)
 
-    # Fixing a piece at its floor only shrinks the others' shares: the fixed set grows
-    # to a fixed point within `count` rounds (in practice two or three).
-    fixed, _ = jax.lax.while_loop(lambda s: s[1], grow, (jnp.zeros((m,), bool), jnp.array(True)))
+    # Fixing a piece at its floor only lowers the others' shares, so the fixed set grows
+    # to a fixed point, within `count` rounds (not all can be fixed while the floors fit).
+    fixed, _ = jax.lax.while_loop(
+        lambda state: state[1], grow, (jnp.zeros(fraction.shape, bool), jnp.array(True))
+    )
     return shares(fixed)
 
 
