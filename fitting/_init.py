@@ -149,7 +149,9 @@ def corner_creases(
 
     index = place(jnp.round(n * at).astype(jnp.int32))
     least = _least_spans(target, order, real, count, piece)
-    spans = jnp.where(real, jnp.diff(index, append=n), 0)  # (the last piece ends at n)
+    # The last piece runs from its corner to n (the first corner, at 0, once round).
+    spans = jnp.where(j + 1 < count, jnp.diff(index, append=n), n - index)
+    spans = jnp.where(real, spans, 0)
     short = jnp.any(real & (spans < least)) & (jnp.sum(least) <= n)
     fraction = jnp.where(real, jnp.diff(at, append=jnp.ones((1,), at.dtype)), 0.0)
     floored = _floored_spans(fraction, least, real, n)
