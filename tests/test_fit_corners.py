@@ -125,6 +125,77 @@ def test_no_corners_on_a_pixel_staircase():
     assert fitting.find_corners(traced_disk()).size == 0
 
 
+def regular_polygon(k, rotation):
+    angle = rotation + 2 * np.pi * np.arange(k) / k
+    return np.stack([np.cos(angle), np.sin(angle)], axis=1)
+
+
+def traced_polygon(vertices, radius):
+    """A polygon scaled to `radius` pixels, rasterised (a pixel is black when its centre
+    is inside, matplotlib's point-in-polygon test) and traced by marching squares
+    through the pixel-edge midpoints (`contourpy`, as `read_image` does); returns the
+    contour and the vertices in its pixel units."""
+    contourpy = pytest.importorskip("contourpy")
+    from matplotlib.path import Path as PolygonPath
+
+    size = int(2 * radius) + 10
+    y, x = np.mgrid[:size, :size]
+    corners = np.asarray(vertices) * radius + size / 2
+    inside = PolygonPath(corners).contains_points(np.stack([x.ravel(), y.ravel()], 1))
+    lines = contourpy.contour_generator(z=inside.reshape(size, size).astype(float)).lines(0.5)
+    return max(lines, key=len)[:-1], corners
+
+
+TRACED_POLYGONS = [
+    (name, vertices, radius)
+    for name, make in [("star", lambda r: star(k=5, inner=0.45) @ [[np.cos(r), np.sin(r)],
+                                                                   [-np.sin(r), np.cos(r)]]),
+                       ("triangle", lambda r: regular_polygon(3, r)),
+                       ("square", lambda r: regular_polygon(4, r)),
+                       ("pentagon", lambda r: regular_polygon(5, r))]
+    for radius in (60, 200)
+    for rotation in (0.0, 0.1, 0.3)
+    for vertices in [make(rotation)]
+]
+
+
+@pytest.mark.parametrize("name, vertices, radius", TRACED_POLYGONS,
+                         ids=[f"{n}-{r}px-{i % 3}" for i, (n, _, r) in enumerate(TRACED_POLYGONS)])
+def test_corners_of_a_traced_bitmap_in_pixels(name, vertices, radius):
+    """Polygons whose corners turn 63 degrees or more (a star's inner corners; its tips
+    135, a pentagon's 72), traced from bitmaps at 60 and 200 px and three rotations:
+    `pixel=1` finds one corner within 2.5 px of every vertex and nothing else. (The
+    staircase of an edge near an axis tilts a 3-px chord by up to 18 degrees: corners
+    within about 10 degrees of `angle`, a hexagon's 60, can be missed; the benchmark
+    `benchmarks/bench_corners.py` counts them.)"""
+    contour, corners = traced_polygon(vertices, radius)
+    found = contour[fitting.find_corners(contour, pixel=1.0)]
+    distance = np.linalg.norm(found[:, None] - corners[None], axis=2)
+    assert len(found) == len(corners)
+    assert distance.min(axis=0).max() < 2.5  # every vertex found
+    assert distance.min(axis=1).max() < 2.5  # nothing else
+
+
+@pytest.mark.parametrize("radius", [30.5, 100.5])
+def test_no_corners_on_a_traced_disk_in_pixels(radius):
+    """Disks traced at 30 and 100 px radius: no corners with `pixel=1` either (a bend
+    of radius R turns about (scale + skip) / R = 5 / R radians, 10 degrees at 30 px)."""
+    assert fitting.find_corners(traced_disk(radius), pixel=1.0).size == 0
+
+
+def test_pixel_scales_with_the_pixel_size():
+    """`pixel=` is a length in the samples' units: the same traced star in units of
+    128 pixels with `pixel=1/128` gives the same corners (a power of two: the same
+    rounding; staircase samples tie in turning, so other units may pick a neighbour);
+    `scale` and `skip` given explicitly override the pixel defaults."""
+    contour, _ = traced_polygon(star(), 60)
+    found = fitting.find_corners(contour, pixel=1.0)
+    assert len(found) == 10
+    np.testing.assert_array_equal(fitting.find_corners(contour / 128, pixel=1 / 128), found)
+    np.testing.assert_array_equal(
+        fitting.find_corners(contour, scale=4.0, skip=1.0), found)
+
+
 def test_star_corners_are_exact_points_of_the_fitted_curve():
     """n = 20 for the 10 corners: two spans per edge, and a clamped cubic piece through
     three collinear control points is the straight edge, so the star is representable
@@ -249,6 +320,11 @@ def test_corner_errors():
         fitting.fit(samples, js.CubicBSpline(), 20, corners="yes")
     with pytest.raises(ValueError, match="angle"):
         fitting.find_corners(samples, angle=200)
+    for bad in ({"pixel": 0.0}, {"pixel": np.nan}, {"scale": -1.0}, {"skip": -0.5},
+                {"skip": 0.1, "scale": 0.1}):
+        with pytest.raises(ValueError, match=f"find_corners\\({next(iter(bad))}=") as raised:
+            fitting.find_corners(samples, **bad)
+        assert str(raised.value)
     with pytest.raises(ValueError, match="traced"):
         jax.jit(lambda t: fitting.fit(t, js.CubicBSpline(), 20, corners="auto").rms)(samples)
 
