@@ -496,6 +496,9 @@ def _fit(args) -> int:
                   f"sampled at its control points, which {args.scheme} is not)")
     # Every contour padded to the longest one's sample count: one compiled program.
     pad_to = max(len(outline.points) for outline in outlines)
+    # A PNG's contours as traced (not resampled): in pixels, between pixel centres.
+    traced_image = (args.input is not None and args.samples is None
+                    and Path(args.input).suffix.lower() == ".png")
     for i, outline in enumerate(outlines):
         boundary = args.boundary or ("closed" if outline.closed else "open")
         pin_ends = args.pin_ends and boundary != "closed"
@@ -507,6 +510,11 @@ def _fit(args) -> int:
         sys.stdout.flush()  # before the progress line on stderr
         start, compiles = time.perf_counter(), _compilations()
         corners = "auto" if args.corners == "auto" and creasable and boundary == "closed" else None
+        if corners and traced_image:
+            # A traced bitmap's corners are measured in pixels (its staircase rounds
+            # them over about one); strongest first, at most one per control point.
+            corners = fitting.find_corners(outline.points, pixel=1.0)
+            corners = corners[: args.n] if args.tolerance is None else corners
         options = dict(
             levels=args.levels, boundary=boundary, pin_ends=pin_ends,
             fit_params=bool(args.fit_params), max_steps=args.max_steps,
@@ -680,7 +688,8 @@ def _add_fit(sub):
                      "at their last, exactly (closed contours have no ends)")
     fit.add_argument("--corners", choices=["auto", "none"], default="auto",
                      help="auto (default): corners found in closed contours (turning by 50 "
-                     "degrees or more over 3 sample spacings) become creased control points, "
+                     "degrees or more over 3 sample spacings; for a PNG, between the chords "
+                     "from 1 to 4 pixels on each side) become creased control points, "
                      "which the curve passes through with a corner; none: smooth curves. "
                      "Primal schemes (cubic-bspline, four-point, split-tweak, jarek)")
     fit.add_argument("--max-steps", type=int, default=500,

@@ -22,6 +22,7 @@ from helpers import (
 )
 from scipy.interpolate import BSpline
 
+import fitting
 import jaxsubdiv as js
 from jaxsubdiv._cli import main
 
@@ -718,6 +719,34 @@ def test_every_hostile_file_is_one_line_through_the_command(capsys, tmp_path):
         assert lines[0].startswith(f"jaxsubdiv refine: error: {path}"), (name, err)
         for word in [words] if isinstance(words, str) else words:
             assert word in lines[0], (name, word, err)
+
+
+def test_fit_png_finds_a_traced_pentagons_corners_in_pixels(capsys, tmp_path):
+    """A regular pentagon of radius 40 px (its corners turn 72 degrees), rotated 0.3
+    rad, as a bitmap: a pixel is black when its centre is inside (matplotlib's
+    point-in-polygon test). Measured over 3 sample spacings its staircase hides 3 of
+    the corners; measured in pixels (`find_corners(pixel=1)`, which the command uses
+    for a PNG) all five are creases, each within 1.5 px of its vertex (the traced
+    contour cuts a corner by about half a pixel)."""
+    from matplotlib.path import Path as PolygonPath
+
+    size, angle = 100, 0.3 + 2 * np.pi * np.arange(5) / 5
+    vertices = 50 + 40 * np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    rows, columns = np.mgrid[:size, :size]
+    # read_image's coordinates: pixel (r, c) is the point (c, size - 1 - r).
+    centres = np.stack([columns.ravel(), size - 1 - rows.ravel()], axis=1)
+    inside = PolygonPath(vertices).contains_points(centres).reshape(size, size)
+    source = tmp_path / "pentagon.png"
+    matplotlib.image.imsave(source, np.where(inside, 0.0, 1.0), cmap="gray", vmin=0, vmax=1)
+    contour = js.io.read_image(source)[0].points
+    assert len(fitting.find_corners(contour)) < 5  # what the sample-spacing default sees
+    status, out, err = cli(capsys, "fit", source, "--n", 10, "-q", "-o", tmp_path / "p.json")
+    assert status == 0, err
+    assert "corners    5" in out
+    saved = js.io.read_result_json(tmp_path / "p.json")
+    creased = saved.control_points[np.asarray(saved.creases)]
+    gaps = np.linalg.norm(creased[:, None] - vertices[None], axis=-1)
+    assert gaps.min(axis=0).max() < 1.5 and len(set(gaps.argmin(axis=0))) == 5
 
 
 def test_fit_tolerance_chooses_a_stars_ten_vertices(capsys, tmp_path):
