@@ -16,8 +16,10 @@ its center is inside the outline (even-odd). Both tracers get that same bitmap:
   (cubic Bezier and line segments) and each segment evaluated exactly.
 - ours: the PNG read by `jaxsubdiv.io.read_image` (the level-0.5 contours between pixel
   centers), each contour fitted by `fitting.fit(points, CubicBSpline(), n,
-  corners="auto")`, its curve the exact limit points (2^levels per span) joined by
-  chords. "Equal segments": n for each contour is the number of segments potrace used
+  corners=fitting.find_corners(points, pixel=1.0)[:n])` (corners measured in pixels,
+  as the command does for a PNG; since 2026-12-05, before which `corners="auto"`, the
+  sample-spacing default), its curve the exact limit points (2^levels per span) joined
+  by chords. "Equal segments": n for each contour is the number of segments potrace used
   for it (contours matched by their centroid and area); a closed cubic B-spline of n
   control points is n cubic Bezier segments, creased or not. "Equal error":
   `fitting.fit_tolerance` per contour with potrace's Hausdorff distance to the truth as
@@ -214,12 +216,14 @@ def measure(family, char, size, folder):
     def fit_all(kind):
         results = []
         for points, n in zip(contours, counts):
+            # Corners measured in pixels (the command does this for a PNG), timed too.
+            corners = fitting.find_corners(points, pixel=1.0)
             if kind == "segments":
-                results.append(fitting.fit(points, scheme, n, corners="auto",
+                results.append(fitting.fit(points, scheme, n, corners=corners[:n],
                                            on_failure="ignore"))
             else:
                 results.append(fitting.fit_tolerance(
-                    points, scheme, p_hausdorff, corners="auto", on_failure="ignore"))
+                    points, scheme, p_hausdorff, corners=corners, on_failure="ignore"))
         return jax.block_until_ready(results)
 
     row = dict(shape=char if family == "analytic" else f"{family} '{char}'",
@@ -261,7 +265,8 @@ def main():
     shapes = ([("analytic", "star"), ("DejaVu Serif", "S")] if args.smoke
               else [("analytic", a) for a in ANALYTIC] + GLYPHS)
     sizes = SIZES[:1] if args.smoke else SIZES
-    run = header(python=sys.version.split()[0], jax=jax.__version__, potrace=version)
+    run = header(python=sys.version.split()[0], jax=jax.__version__, potrace=version,
+                 corners="fitting.find_corners(points, pixel=1.0)")
     rows = []
     start = time.perf_counter()
     folder = Path(tempfile.mkdtemp())
@@ -294,7 +299,8 @@ def markdown(run) -> str:
         "fitted with as many control points (cubic Bezier segments) as potrace used for it. "
         "Equal error: `fitting.fit_tolerance` with potrace's Hausdorff as the tolerance "
         "(against the pixel contour). Times: potrace's process (median of 5); our warm fits "
-        "of all contours (median of 3; the tolerance search once, warm).",
+        "of all contours (median of 3; the tolerance search once, warm). Our corners: "
+        + run.get("corners", '`corners="auto"` (sample spacings)') + ".",
         "",
         "| shape | px | segments | potrace RMS | ours RMS | ratio | potrace Hausdorff | "
         "ours Hausdorff | ratio | corners | equal error: our segments | its Hausdorff | "
