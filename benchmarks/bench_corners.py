@@ -25,7 +25,6 @@ Times: `find_corners` per contour, median over the glyph contours. Writes
 `results/corners.json` and `.md`.
 """
 
-import json
 import statistics
 import sys
 import tempfile
@@ -155,9 +154,8 @@ def smooth_rows(smoke):
 
 
 def glyph_rows(smoke):
-    from matplotlib.path import Path as PolygonPath
-
     import bench_potrace as bp
+    from matplotlib.path import Path as PolygonPath
 
     shapes = [("analytic", "star"), ("DejaVu Serif", "S")] if smoke else \
         [("analytic", "star")] + bp.GLYPHS
