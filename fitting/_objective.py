@@ -339,13 +339,13 @@ class Objective(eqx.Module):
         nearest point of the curve's chords that lie within the sample's larger gap to
         its neighbours, along the curve, from the crease.
 
-        Left to slide anywhere, as the other feet do, a corner sample could go to
-        another part of the curve, and its crease with it, in a poor local minimum:
-        creases ended up 4-11 px from their corners in 3 of 20 fits of 256-px glyph
-        bitmaps (and as far with the foot kept within the two spans at the crease). Kept
-        this close, it holds the crease at the corner without pinning the crease to the
-        sample, which would cut a corner lying between samples (measured: a star's tips
-        5e-4 of its size inside at 200 samples). The k-th corner sample has the k-th
+        Left to slide anywhere, as the other feet do (or within the two spans at the
+        crease), a corner sample could go to another part of the curve, and its crease
+        with it, in a poor local minimum (a traced glyph:
+        `test_creases_stay_at_the_corners_of_a_traced_glyph`). Kept this close, it holds
+        the crease at the corner without pinning the crease to the sample, which would
+        cut a corner lying between samples (`test_sparse_samples_do_not_pull_the_corners_in`
+        fails that way). The k-th corner sample has the k-th
         crease (`_init.corner_creases`); there are at most n corner samples, so the
         search is over n x 2 spans' chords.
         """

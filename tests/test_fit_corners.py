@@ -245,8 +245,8 @@ def test_creases_stay_at_the_corners_of_a_traced_glyph():
     control points (potrace's count for it): every crease within 2 px of its corner
     sample, and the curve within 1 px of the glyph's exact outline (potrace: 1.11 px;
     measured 1.43 and 0.63 px). While a corner sample's foot could slide anywhere
-    along the curve, creases drifted off their corners (here 2.8 px; up to 11 px at
-    other counts) and the error was 1.91 px. Not yet robust: the mirror image of this
+    along the curve, creases drifted off their corners (2.8 px) and the error was
+    1.91 px. Not yet robust: the mirror image of this
     bitmap (its contour counter-clockwise) fits to 1.86 px, creases in place."""
     outline, corners, (contour,) = traced_glyph("STIXGeneral", "S", 256)
     found = fitting.find_corners(contour, pixel=1.0)
