@@ -35,6 +35,7 @@ import jaxsubdiv as js
 from jaxsubdiv import AbstractCurveScheme
 
 from ._curve import (
+    _window_project,
     all_distances,
     band_basis,
     band_rows,
@@ -364,19 +365,15 @@ class Objective(eqx.Module):
         # Chords starting at crease - rows, ..., crease + rows - 1, and how far along the
         # curve each one's nearer end is from the crease.
         first = crease[:, None] - rows + jnp.arange(2 * rows)[None, :]
-        start, end = X[first % N], X[(first + 1) % N]
-        chord = end - start
-        length = safe_norm(chord)
+        length = safe_norm(X[(first + 1) % N] - X[first % N])
         right = jnp.cumsum(length[:, rows:], axis=1) - length[:, rows:]
         left = jnp.flip(jnp.cumsum(jnp.flip(length[:, :rows], 1), axis=1), 1) - length[:, :rows]
         near = jnp.concatenate([left, right], axis=1) <= reach[:, None]
-        point = target[which][:, None, :]
-        length2 = jnp.sum(chord**2, -1)
-        t = jnp.sum((point - start) * chord, -1) / jnp.where(length2 > 0, length2, 1.0)
-        t = jnp.clip(jnp.where(length2 > 0, t, 0.0), 0.0, 1.0)
-        distance2 = jnp.sum((start + t[..., None] * chord - point) ** 2, -1)
-        best = jnp.argmin(jnp.where(near, distance2, jnp.inf), axis=1)
-        foot = jnp.take_along_axis(first + t, best[:, None], axis=1)[:, 0]
+        # The nearest point among those chords (the out-of-reach ones replaced by the
+        # crease's own chord), by the polyline projection the other feet use.
+        window = jnp.where(near, first, crease[:, None])
+        segment, fraction = _window_project(target[which], X, True, window)
+        foot = segment + fraction
         # Back to one per sample (the padding rows of `which` dropped).
         valid = jnp.arange(n) < jnp.sum(corners)
         tau = jnp.zeros(m, dtype)
