@@ -246,8 +246,7 @@ def test_creases_stay_at_the_corners_of_a_traced_glyph():
     sample, and the curve within 1 px of the glyph's exact outline (potrace: 1.11 px;
     measured 1.43 and 0.63 px). While a corner sample's foot could slide anywhere
     along the curve, creases drifted off their corners (2.8 px) and the error was
-    1.91 px. Not yet robust: the mirror image of this
-    bitmap (its contour counter-clockwise) fits to 1.86 px, creases in place."""
+    1.91 px."""
     outline, corners, (contour,) = traced_glyph("STIXGeneral", "S", 256)
     found = fitting.find_corners(contour, pixel=1.0)
     # The corners found are within 2 px of the glyph's (measured up to 1.7 px), but for
@@ -265,15 +264,13 @@ def test_creases_stay_at_the_corners_of_a_traced_glyph():
     assert hausdorff < 1.0
 
 
-@pytest.mark.xfail(strict=True, reason="the creases are allocated by rounding cumulative "
-                   "arc-length fractions from the first corner in the samples' canonical "
-                   "order, which a mirror image changes")
 def test_a_mirror_image_fits_alike():
     """The traced STIXGeneral 'S' of the test above and its mirror image (y negated;
-    the same corners): the fitted curves must be mirror images. Measured: Hausdorff 0.63
-    and 1.86 px to the exact outline, spans between creases [.., 15, 1, 1, ..] against
-    [.., 1, 14, 1, 2, ..]. Largest-remainder apportionment of the spans (independent of
-    where the count starts) gave 0.63 for both in a prototype."""
+    the same corners): the fitted curves are equally far from the exact outline, and
+    each piece between corners gets the same spans. While the spans came from rounding
+    cumulative shares from the first corner in the samples' canonical order (which a
+    mirror image changes), one moved between pieces ([.., 15, 1, 1, ..] against
+    [.., 1, 14, 1, 2, ..]) and the errors were 0.63 and 1.86 px."""
     outline, _, (contour,) = traced_glyph("STIXGeneral", "S", 256)
     found = fitting.find_corners(contour, pixel=1.0)
     flip = np.array([1.0, -1.0])
@@ -284,6 +281,12 @@ def test_a_mirror_image_fits_alike():
     errors = [max(distance_to_curve(curve, truth).max(), distance_to_curve(truth[::4], curve).max())
               for curve in (np.asarray(first.curve), np.asarray(mirror.curve) * flip)]
     assert abs(errors[0] - errors[1]) < 0.01, errors
+    # The spans between consecutive creases: the same cyclic sequence, run backwards.
+    gaps = []
+    for result in (first, mirror):
+        creases = np.flatnonzero(np.asarray(result.creases))
+        gaps.append(np.diff(np.append(creases, creases[0] + 39)))
+    assert any(np.array_equal(np.roll(gaps[0], k), gaps[1][::-1]) for k in range(len(gaps[0]))), gaps
 
 
 def test_star_corners_are_exact_points_of_the_fitted_curve():
