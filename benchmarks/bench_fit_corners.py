@@ -17,6 +17,12 @@ outline, both ways, each point's distance to the other polyline by brute force;
 Hausdorff = the larger maximum, RMS = the larger RMS (over the dense points, evenly
 spaced along each). Times: warm medians of 3 calls (first call excluded).
 
+A batch: the same outlines' samples (all of them, corners or not) in one
+`fitting.fit_batch(samples, CubicBSpline(), 32, corners="auto")` against a loop of
+`fitting.fit` over them with the same settings (`max_steps` 200, `fit_batch`'s
+default), warm medians of 3; the largest difference between their curves, and each
+item's creases against its single fit's.
+
 Writes `results/fit_corners.json` and `.md` (`--output` sets the JSON path).
 """
 
@@ -157,8 +163,47 @@ def main():
                 rows.append(row)
                 print(name, scheme_name, n, {k: row[k] for k in ("smooth", "corners")},
                       flush=True)
+    run["batch"] = batch(fitting, js, shapes)
     run.update(load_end=load(), wall_seconds=round(time.perf_counter() - start, 1), rows=rows)
     write_results(output, run, markdown)
+
+
+def batch(fitting, js, shapes, n=32):
+    """`fit_batch` with corners against a loop of `fit` (see the module's docstring)."""
+    import jax
+
+    targets = [resample(star_outline() if char is None else glyph_outline(family, char), 400)
+               for family, char in shapes]
+    scheme = js.CubicBSpline()
+    options = dict(corners="auto", max_steps=200, on_failure="ignore")
+    calls = dict(
+        batch=lambda: fitting.fit_batch(targets, scheme, n, **options),
+        loop=lambda: [fitting.fit(t, scheme, n, **options) for t in targets],
+    )
+    seconds, results = {}, {}
+    for name, call in calls.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            results[name] = jax.block_until_ready(call())
+            times = []
+            for _ in range(3):
+                t0 = time.perf_counter()
+                jax.block_until_ready(call())
+                times.append(time.perf_counter() - t0)
+        seconds[name] = statistics.median(times)
+    together, alone = results["batch"], results["loop"]
+    difference = max(float(np.abs(np.asarray(together.curve[i]) - np.asarray(r.curve)).max())
+                     for i, r in enumerate(alone))
+    same_creases = all(
+        np.array_equal(np.asarray(together.creases[i]),
+                       np.zeros(n, bool) if r.creases is None else np.asarray(r.creases))
+        for i, r in enumerate(alone))
+    report = dict(items=len(targets), n=n, batch_seconds=seconds["batch"],
+                  loop_seconds=seconds["loop"], max_curve_difference=difference,
+                  same_creases=same_creases,
+                  converged=int(np.sum(np.asarray(together.converged))))
+    print("batch", report, flush=True)
+    return report
 
 
 def markdown(run) -> str:
@@ -193,6 +238,13 @@ def markdown(run) -> str:
                   f"{max(h):.3g}); RMS median {statistics.median(q):.3g} ({min(q):.3g}-"
                   f"{max(q):.3g}); time median {statistics.median(t):.3g} ({min(t):.3g}-"
                   f"{max(t):.3g})."]
+    b = run.get("batch")
+    if b:
+        lines += ["", f"A batch of these {b['items']} outlines, CubicBSpline, n = {b['n']}, "
+                  f"`corners=\"auto\"`: `fit_batch` {b['batch_seconds']:.3f} s, a loop of "
+                  f"`fit` {b['loop_seconds']:.3f} s ({b['loop_seconds'] / b['batch_seconds']:.2f}x); "
+                  f"{b['converged']} converged; curves within {b['max_curve_difference']:.2g} "
+                  f"of the single fits'; creases {'the same' if b['same_creases'] else 'DIFFERENT'}."]
     return "\n".join(lines) + "\n"
 
 

@@ -11,6 +11,7 @@ import hashlib
 import os
 import re
 import warnings
+from collections.abc import Sequence
 from typing import Literal
 
 import equinox as eqx
@@ -30,6 +31,7 @@ from jaxsubdiv.validation import (
 from . import _progress
 from ._checks import (
     bucket,
+    check_memory,
     check_on_failure,
     check_tol,
     default_levels,
@@ -39,20 +41,22 @@ from ._checks import (
     prepare,
 )
 from ._core import fit_one, make_objective, traced_settings
+from ._corners import corner_flags
 from ._objective import FitData, Objective
 from ._params import uses_tangents
 from ._result import FitResult, FitStatus, report, status_code
 from ._solver import make_solver
 
 
-def _fit_items(targets, weights, counts, steps, scheme, root_smoothing, tol, total, *,
-               objective: Objective, solver, devices: int, progress: bool):
+def _fit_items(targets, weights, counts, corners, steps, scheme, root_smoothing, tol, total,
+               *, objective: Objective, solver, devices: int, progress: bool):
     """Fit `(k, m, d)` targets one after another (`lax.map`, a scan of single solves).
 
     One after another rather than `vmap` over the items: a batched solver loop runs every
     item until the slowest converges, and its batched gathers and factorizations ran
     slower per item on CPU; measured 1.9x slower than a Python loop of single fits (64
     items), where `lax.map` matches the loop with one dispatch for the whole batch.
+    `corners`: each item's corner flags `(k, m)` with `objective.corners`, else None.
     `steps`: each item's step limit `(k,)`, or one static int for optimistix's solvers;
     `total`: the number of real items in this call's batch (this process's share, with
     several processes), for the progress line.
@@ -60,20 +64,20 @@ def _fit_items(targets, weights, counts, steps, scheme, root_smoothing, tol, tot
     per_item = eqx.is_array(steps)
 
     def solve(item):
-        index, target, weight, count, *limit = item
+        index, target, weight, count, flags, *limit = item
         data = FitData(target=target, weights=weight, scheme=scheme,
-                       root_smoothing=root_smoothing, count=count)
+                       root_smoothing=root_smoothing, count=count, corners=flags)
         result = fit_one(data, None, tol, limit[0] if per_item else steps,
                          objective=objective, solver=solver, progress=False)
         if progress:  # one line for the batch: outlines done, not every solver step
             _progress.items_done(index, devices, total)
         return result
 
-    items = (jnp.arange(targets.shape[0]), targets, weights, counts)
+    items = (jnp.arange(targets.shape[0]), targets, weights, counts, corners)
     return jax.lax.map(solve, items + ((steps,) if per_item else ()))
 
 
-def _batched(targets, weights, counts, steps, scheme, root_smoothing, tol, total, *,
+def _batched(targets, weights, counts, corners, steps, scheme, root_smoothing, tol, total, *,
              objective: Objective, solver, shares: int, progress: bool, mesh=None):
     """Fit `(devices, per_device, m, d)` targets: on each device its slice, one item after
     another (`_fit_items`).
@@ -92,27 +96,27 @@ def _batched(targets, weights, counts, steps, scheme, root_smoothing, tol, total
     per_item = eqx.is_array(steps)
     devices = 1 if mesh is None else mesh.size
 
-    def one_device(t, w, c, k):
-        return _fit_items(t, w, c, k if per_item else steps, scheme, root_smoothing, tol,
+    def one_device(t, w, c, f, k):
+        return _fit_items(t, w, c, f, k if per_item else steps, scheme, root_smoothing, tol,
                           total, objective=objective, solver=solver,
                           devices=devices * shares, progress=progress)
 
     def items(*arrays):
         # A device's slice, with its leading axis of one; the results get it back.
-        result = one_device(*(x[0] for x in arrays))
+        result = one_device(*(None if x is None else x[0] for x in arrays))
         return jax.tree.map(lambda x: x[None], result)
 
     limits = steps if per_item else jnp.zeros(targets.shape[:1], jnp.int32)
     if mesh is None:
-        return items(targets, weights, counts, limits)
+        return items(targets, weights, counts, corners, limits)
     if solver is not None:
-        return jax.vmap(one_device)(targets, weights, counts, limits)
+        return jax.vmap(one_device)(targets, weights, counts, corners, limits)
     spec = jax.sharding.PartitionSpec("batch")
     # check_vma=False: the solver's loops start from constants (the same on every
     # device) and carry values that differ per device, which the varying-axis check
     # rejects; there are no collectives inside for it to guard.
     return jax.shard_map(items, mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False)(
-        targets, weights, counts, limits)
+        targets, weights, counts, corners, limits)
 
 
 # Module level, so that repeated calls with the same shapes and settings reuse the
@@ -127,14 +131,15 @@ def _available_cores() -> int:
         return os.cpu_count() or 1
 
 
-def _run_batch(targets, weights, counts, scheme, settings, *, objective, solver, progress,
-               devices, threads):
+def _run_batch(targets, weights, counts, corners, scheme, settings, *, objective, solver,
+               progress, devices, threads):
     """Fit the stacked batch over `devices`, or on one CPU device from `threads` threads.
 
     Each device's (or thread's) share is padded to an item-count bucket (`bucket(...,
     smallest=1)`), so batches of similar sizes share one compiled program; the padding
     items are copies of the first, stopped after one step by the default solver.
-    `settings = (root_smoothing, tol, max_steps)` (`_core.traced_settings`).
+    `settings = (root_smoothing, tol, max_steps)` (`_core.traced_settings`); `corners`:
+    the items' corner flags `(B, m)`, or None for smooth fits.
     """
     size = targets.shape[0]
     root_smoothing, tol, max_steps = settings
@@ -148,20 +153,21 @@ def _run_batch(targets, weights, counts, scheme, settings, *, objective, solver,
     extra = parts * share - size
     xp = jnp if is_traced(targets) or is_traced(weights) else np  # as in `pad`
     grow = lambda x: xp.concatenate([x, xp.repeat(x[:1], extra, axis=0)]) if extra else x
-    arrays = [grow(targets), grow(weights), grow(counts)]
+    arrays = [grow(x) for x in (targets, weights, counts)]
+    arrays.append(None if corners is None else grow(corners))
     if per_item:
         arrays.append(np.concatenate([np.full((size,), max_steps, np.int32),
                                       np.ones((extra,), np.int32)]))
     # (parts, share, ...): one slice per device, or per thread.
-    arrays = [x.reshape((parts, share) + x.shape[1:]) for x in arrays]
+    arrays = [None if x is None else x.reshape((parts, share) + x.shape[1:]) for x in arrays]
     steps = arrays.pop() if per_item else max_steps
     total = np.int32(size)
 
     several = parts > 1 and not threaded
     mesh = jax.sharding.Mesh(np.array(devices), ("batch",)) if several else None
 
-    def program(t, w, c, k, shares=1):
-        return _batched_jit(t, w, c, k, scheme, root_smoothing, tol, total,
+    def program(t, w, c, f, k, shares=1):
+        return _batched_jit(t, w, c, f, k, scheme, root_smoothing, tol, total,
                             objective=objective, solver=solver, shares=shares,
                             progress=progress, mesh=mesh)
 
@@ -172,9 +178,9 @@ def _run_batch(targets, weights, counts, scheme, settings, *, objective, solver,
         # Concurrent first calls compile the program once (checked with
         # `jax_log_compiles`). Each share keeps a leading device axis of one.
         def run(k):
-            t, w, c = (x[k:k + 1] for x in arrays)
+            t, w, c, f = (None if x is None else x[k:k + 1] for x in arrays)
             limit = steps[k:k + 1] if per_item else steps
-            return jax.block_until_ready(program(t, w, c, limit, shares=threads))
+            return jax.block_until_ready(program(t, w, c, f, limit, shares=threads))
 
         with concurrent.futures.ThreadPoolExecutor(threads) as pool:
             done = list(pool.map(run, range(threads)))
@@ -201,9 +207,10 @@ def _run_batch(targets, weights, counts, scheme, settings, *, objective, solver,
     return jax.tree.map(lambda x: merge(x) if eqx.is_array(x) else x, result)
 
 
-def _fingerprint(targets, weights, counts, modules, settings, extra) -> np.ndarray:
+def _fingerprint(targets, weights, counts, corners, modules, settings, extra) -> np.ndarray:
     """What every process of a multi-process batch must agree on: a BLAKE2b digest of the
-    batch's samples, weights and counts (with their shapes and dtypes), the `modules`
+    batch's samples, weights, counts and corner flags (with their shapes and dtypes;
+    `corners` may be None), the `modules`
     (the scheme, an optimistix solver: their types, static fields and numbers) and the
     settings, as 8 uint32 words (a fixed size, so that the gather that compares them
     works whatever differs). Compared across processes before fitting
@@ -214,14 +221,14 @@ def _fingerprint(targets, weights, counts, modules, settings, extra) -> np.ndarr
     # (a function's repr holds one, which differs between processes).
     described = re.sub(r" at 0x[0-9a-f]+", "", str(jax.tree.structure(static)))
     digest.update(repr((described, extra)).encode())
-    for x in (targets, weights, counts, *jax.tree.leaves(numbers), *settings):
+    for x in (targets, weights, counts, *jax.tree.leaves((corners, numbers)), *settings):
         x = np.ascontiguousarray(np.asarray(x))
         digest.update(repr((x.shape, x.dtype.str)).encode())
         digest.update(x)  # the buffer itself: no copy of the batch
     return np.frombuffer(digest.digest(), np.uint32).copy()
 
 
-def _run_across_processes(targets, weights, counts, scheme, settings, *, extra,
+def _run_across_processes(targets, weights, counts, corners, scheme, settings, *, extra,
                           **options):
     """Fit the stacked batch across the processes of a multi-process JAX program
     (`jax.distributed.initialize` called in each): process `p` of `P` fits the items
@@ -242,8 +249,8 @@ def _run_across_processes(targets, weights, counts, scheme, settings, *, extra,
     from jax.experimental import multihost_utils
 
     size, processes, me = targets.shape[0], jax.process_count(), jax.process_index()
-    mine = _fingerprint(targets, weights, counts, (scheme, options["solver"]), settings,
-                        extra)
+    mine = _fingerprint(targets, weights, counts, corners, (scheme, options["solver"]),
+                        settings, extra)
     every = np.asarray(multihost_utils.process_allgather(
         np.concatenate([np.array([me], np.uint32), mine])))  # fmt: skip
     # The gathers' rows follow the devices' order; put them in process order.
@@ -263,7 +270,8 @@ def _run_across_processes(targets, weights, counts, scheme, settings, *, extra,
     # A process without items (fewer items than processes) fits item 0, discarded.
     part = slice(start, stop) if stop > start else slice(0, 1)
     try:
-        result, error = _run_batch(targets[part], weights[part], counts[part], scheme,
+        result, error = _run_batch(targets[part], weights[part], counts[part],
+                                   None if corners is None else corners[part], scheme,
                                    settings, devices=jax.local_devices(), **options), None
     except Exception as raised:  # re-raised below, after telling the other processes
         result, error = None, raised
@@ -294,6 +302,7 @@ def fit_batch(
     levels: int | None = None,
     boundary: Literal["closed", "open", "clamped"] = "closed",
     pin_ends: bool = False,
+    corners: None | Literal["auto"] | Sequence[None | str | Sequence[int]] = None,
     fit_params: bool | str | tuple[str, ...] = False,
     profile: int | None = None,
     solver=None,
@@ -337,6 +346,14 @@ def fit_batch(
     - `targets`: an array `(B, m, d)`, or a list of `B` arrays `(m_i, d)` of different
       lengths (padded internally with zero-weight samples).
     - `weights`: `None`, an array `(B, m)`, or a list of `(m_i,)` arrays.
+    - `corners`: `None` (smooth curves), `"auto"` (every item's corners found by
+      [`fitting.find_corners`][] with its defaults), or a list of `B` entries, each
+      `None`, `"auto"` or that item's corner sample indices (as for `fit`, whose
+      `corners` documents the creased fit). With corners in any item, every item is
+      modelled as `fit` models a creased curve (by chords, default `levels` as for non-C1
+      schemes), and an item without corners gets a smooth curve of that model (no
+      creases), which can differ from its smooth fit by the model's accuracy.
+      `result.creases` is then `(B, n)`.
     - `max_steps`: solver step limit per item (default 200).
     - `devices`: the devices to split the batch over (default: this process's devices,
       or, with several processes, each process its own; devices of several processes
@@ -388,8 +405,15 @@ def fit_batch(
     if not devices:
         raise ValueError("`fit_batch(devices=...)` is empty; pass None for all devices.")
     dimension = dims[0] if dims else 2
+    if corners is None or isinstance(corners, str):
+        corners = [corners] * len(items)
+    elif not isinstance(corners, (list, tuple)) or len(corners) != len(items):
+        raise ValueError(
+            f"`fit_batch(corners=...)` must be None, 'auto' or a list of one entry per "
+            f"target ({len(items)}), each None, 'auto' or sample indices; got {corners!r}."
+        )
     prepared, bad, invalid, first_error = [], [], {}, None
-    for i, (t, w) in enumerate(zip(items, weights)):
+    for i, (t, w, c) in enumerate(zip(items, weights, corners)):
         # Items that cannot be fitted are not fitted: their outputs become NaN and their
         # status nonfinite_input or invalid_input below, the other items unaffected.
         well_formed = t.ndim == 2 and t.shape[-1] >= 2
@@ -403,13 +427,16 @@ def fit_batch(
                 caller=f"fit_batch(targets[{i}])", memory_budget=memory_budget,
                 profile=profile, pin_ends=pin_ends,
             )  # fmt: skip
+            # A non-finite item's stand-in has no corners to find.
+            c = corner_flags(None if i in bad else c, t, w, scheme, n, boundary, pin_ends,
+                             ordered, caller=f"fit_batch(corners[{i}])")
         except ValueError as error:
             if on_failure == "raise" or is_traced(t):
                 raise
             invalid[i], first_error = str(error), first_error or error
-            t = w = None
-        prepared.append((t, w))
-    valid = [i for i, (t, _) in enumerate(prepared) if t is not None and i not in bad]
+            t = w = c = None
+        prepared.append((t, w, c))
+    valid = [i for i, (t, _, _) in enumerate(prepared) if t is not None and i not in bad]
     if invalid and not valid and not bad:
         # A wrong setting fails every item; so does a batch of invalid items.
         raise first_error
@@ -420,20 +447,31 @@ def fit_batch(
         prepared = [stand_in if i in invalid or i in bad else item
                     for i, item in enumerate(prepared)]  # fmt: skip
     # One sample-count bucket for the whole batch: every item padded to it.
-    size = bucket(max(t.shape[0] for t, _ in prepared))
-    hermite = uses_tangents(scheme, names, boundary)
+    size = bucket(max(t.shape[0] for t, _, _ in prepared))
+    creased = any(c is not None for _, _, c in prepared)
+    # A creased curve is modelled by chords (as in `fit`).
+    hermite = uses_tangents(scheme, names, boundary) and not creased
     if levels is None:
         levels = default_levels(n, size, hermite)
-    padded = [pad(t, w, size) for t, w in prepared]
+        if creased:
+            check_memory("fit_batch", size, 0, n, levels, scheme, boundary,
+                         prepared[0][0].dtype, memory_budget, ordered)
+    padded = [pad(t, w, size) for t, w, _ in prepared]
+    flags = None
+    if creased:
+        flags = np.zeros((len(prepared), size), bool)
+        for i, (t, _, c) in enumerate(prepared):
+            if c is not None:
+                flags[i, : t.shape[0]] = c
     xp = jnp if any(is_traced(x) for item in padded for x in item) else np
     stacked = xp.stack([t for t, _ in padded])
     stacked_weights = xp.stack([w for _, w in padded])
-    counts = np.array([t.shape[0] for t, _ in prepared], np.int32)
+    counts = np.array([t.shape[0] for t, _, _ in prepared], np.int32)
     max_steps = static_int(max_steps, "max_steps", minimum=1)
     tol = default_tol(stacked.dtype) if tol is None else check_tol(tol, "fit_batch")
     objective = make_objective(scheme, n=n, levels=levels, boundary=boundary, names=names,
                                hermite=hermite, size=size, profile=values,
-                               pin_ends=pin_ends)
+                               pin_ends=pin_ends, corners=creased)
     own = make_solver(solver, tol, tol, progress)
     if progress:
         _progress.begin()
@@ -449,10 +487,10 @@ def fit_batch(
         extra = (n, levels, boundary, pin_ends, names, repr(values), ordered,
                  "levenberg-marquardt" if solver is None else
                  solver if isinstance(solver, str) else "instance")
-        result = _run_across_processes(stacked, stacked_weights, counts, scheme, settings,
-                                       extra=extra, **options)
+        result = _run_across_processes(stacked, stacked_weights, counts, flags, scheme,
+                                       settings, extra=extra, **options)
     else:
-        result = _run_batch(stacked, stacked_weights, counts, scheme, settings,
+        result = _run_batch(stacked, stacked_weights, counts, flags, scheme, settings,
                             devices=devices, **options)
     if progress:
         jax.block_until_ready(result)
@@ -460,7 +498,9 @@ def fit_batch(
     for items_, status in ((bad, FitStatus.nonfinite_input), (list(invalid), FitStatus.invalid_input)):
         if items_:
             index = jnp.array(items_)
-            blank = lambda x: x.at[index].set(jnp.nan) if eqx.is_inexact_array(x) else x
+            blank = (lambda x: x.at[index].set(jnp.nan) if eqx.is_inexact_array(x)
+                     else x.at[index].set(False) if eqx.is_array(x) and x.dtype == bool
+                     else x)  # fmt: skip
             result = jax.tree.map(blank, result)
             result = eqx.tree_at(
                 lambda r: (r.status, r.num_steps), result,

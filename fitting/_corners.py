@@ -148,26 +148,27 @@ def find_corners(
 
 
 def corner_flags(corners, target, weights, scheme, n: int, boundary: str, pin_ends: bool,
-                 ordered: bool) -> np.ndarray | None:
+                 ordered: bool, caller: str = "fit(corners=...)") -> np.ndarray | None:
     """`fit(corners=...)` checked: per-sample flags `(m,)` of the corners, or None for
-    a smooth fit (no corners asked for, or none found)."""
+    a smooth fit (no corners asked for, or none found). `caller` names the argument in
+    errors."""
     if corners is None:
         return None
     if boundary != "closed":
         raise ValueError(
-            f"`fit(corners=...)` needs boundary='closed'; got boundary={boundary!r}. An open "
+            f"`{caller}` needs boundary='closed'; got boundary={boundary!r}. An open "
             "stroke's corners split it into strokes: fit each with pin_ends=True."
         )
-    check_creasable(scheme, "fit(corners=...)")
+    check_creasable(scheme, caller)
     m = target.shape[0]
     if isinstance(corners, str):
         if corners != "auto":
             raise ValueError(
-                f"`fit(corners=...)` must be None, 'auto' or sample indices; got {corners!r}."
+                f"`{caller}` must be None, 'auto' or sample indices; got {corners!r}."
             )
         if is_traced(target):
             raise ValueError(
-                "`fit(corners='auto')` finds corners on the host: the target must be "
+                f"`{caller}` as 'auto' finds corners on the host: the target must be "
                 "concrete, not traced; under `jax.jit` (or `grad`) pass the corner samples' "
                 "indices (from `fitting.find_corners`) instead."
             )
@@ -176,20 +177,20 @@ def corner_flags(corners, target, weights, scheme, n: int, boundary: str, pin_en
     else:
         if not ordered:
             raise ValueError(
-                "`fit(corners=...)` as sample indices needs ordered samples (ordered=True): "
+                f"`{caller}` as sample indices needs ordered samples (ordered=True): "
                 "with ordered=False the samples are reordered first. Use corners='auto'."
             )
         index = np.asarray(corners)
         if index.ndim != 1 or (index.size and not np.issubdtype(index.dtype, np.integer)):
             raise ValueError(
-                f"`fit(corners=...)` must be a 1-d sequence of sample indices; got {corners!r}."
+                f"`{caller}` must be a 1-d sequence of sample indices; got {corners!r}."
             )
         if np.any((index < -m) | (index >= m)):
-            raise ValueError(f"`fit(corners=...)` must be indices in [0, {m - 1}].")
+            raise ValueError(f"`{caller}` must be indices in [0, {m - 1}].")
         index = np.unique(np.mod(index, m))
         if index.size > n:
             raise ValueError(
-                f"`fit(corners=...)` has {index.size} corners for n_control={n}: every corner "
+                f"`{caller}` has {index.size} corners for n_control={n}: every corner "
                 "is a control point, so use at least as many control points as corners."
             )
     if index.size and not is_traced(weights):

@@ -501,3 +501,55 @@ def test_creases_share_the_control_points_by_arc_length():
     matches = [np.all(np.abs(np.roll(g, k) - arcs) <= 1.0)
                for g in (gaps, gaps[::-1]) for k in range(len(gaps))]
     assert any(matches), (gaps, arcs)
+
+
+def test_a_batch_with_corners():
+    """`fit_batch(corners=...)`: two stars (the second rotated, scaled and moved, at
+    another phase), a star whose corners are given as indices, and a circle (no
+    corners). Each star's curve passes through its vertices to the solver's
+    tolerance and its creased control points are the vertices; the disk gets no
+    crease and is as close to the circle as its smooth fit; every star is the curve
+    `fit` gives it alone, to the solver's tolerance (400 samples each: the programs of
+    the tests above)."""
+    V = star()
+    turn = np.array([[np.cos(0.3), -np.sin(0.3)], [np.sin(0.3), np.cos(0.3)]])
+    stars = [V, 3.0 * V @ turn.T + [1.0, -2.0], V]
+    targets = [polygon_samples(stars[0], 400, 0.013), polygon_samples(stars[1], 400, 0.37),
+               polygon_samples(stars[2], 400, 0.2)]
+    given = sorted(np.argmin(np.linalg.norm(targets[2][:, None] - V, axis=2), 0))
+    angle = 2 * np.pi * np.arange(400) / 400
+    targets.append(np.stack([np.cos(angle), np.sin(angle)], 1))
+    corners = ["auto", "auto", list(given), None]
+    result = fitting.fit_batch(targets, js.CubicBSpline(), 20, corners=corners)
+    assert np.all(np.asarray(result.converged))
+    creases = np.asarray(result.creases)
+    assert creases.shape == (4, 20)
+    assert creases.sum(1).tolist() == [10, 10, 10, 0]
+    for i, vertices in enumerate(stars):
+        size = np.ptp(vertices, axis=0).max()
+        curve = np.asarray(result.curve[i])
+        assert distance_to_curve(vertices, curve).max() < 1e-6 * size
+        creased = np.asarray(result.control_points[i])[creases[i]]
+        assert distance_to_curve(vertices, creased).max() < 1e-6 * size
+    for i, (target, c) in enumerate(zip(targets[:3], corners)):
+        alone = fitting.fit(target, js.CubicBSpline(), 20, corners=c)
+        np.testing.assert_allclose(np.asarray(result.curve[i]), np.asarray(alone.curve),
+                                   atol=1e-6)
+    # The disk by chords: as close to the circle as its smooth fit.
+    smooth = fitting.fit(targets[3], js.CubicBSpline(), 20)
+    radial = [np.abs(np.linalg.norm(np.asarray(c), axis=1) - 1).max()
+              for c in (result.curve[3], smooth.curve)]
+    assert radial[0] <= 1.05 * radial[1], radial  # measured 1.44e-5 and 1.38e-5
+
+
+def test_batch_corner_errors():
+    samples = polygon_samples(star(), 200, 0.1)
+    with pytest.raises(ValueError, match="one entry per target"):
+        fitting.fit_batch([samples, samples], js.CubicBSpline(), 20, corners=["auto"])
+    with pytest.raises(ValueError, match="primal"):
+        fitting.fit_batch([samples], js.Chaikin(), 20, corners="auto")
+    with pytest.warns(RuntimeWarning, match=r"fit_batch\(corners\[1\]\)"):
+        result = fitting.fit_batch([samples, samples], js.CubicBSpline(), 8,
+                                   corners=["auto", list(range(0, 200, 20))])
+    assert fitting.STATUSES[int(result.status[1])] == "invalid_input"
+    assert not np.asarray(result.creases[1]).any()
