@@ -1,6 +1,6 @@
 """Fits with corners against smooth fits, measured against the true outlines (issue #21).
 
-    python benchmarks/bench_fit_corners.py           # full run (~3 min on 2 cores)
+    python benchmarks/bench_fit_corners.py           # full run (~5 min on 2 cores)
     python benchmarks/bench_fit_corners.py --smoke   # the star and one glyph, n = 32
 
 Shapes with exact outlines, so that errors are measured against the truth and not

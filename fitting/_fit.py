@@ -127,7 +127,8 @@ def fit(
       fitted with *creased* control points, one per corner, which the curve passes
       through with a corner (the scheme's crease rule: `jaxsubdiv.refine(creases=...)`),
       so corners are neither rounded nor overshot. The control points are shared among
-      the pieces between corners in proportion to their arc length, and the creases
+      the pieces between corners in proportion to their arc length (largest
+      remainders, so the same wherever the samples start), and the creases
       sit at the corner samples' control points at the start; the solver then moves
       every control point, corners included. `result.creases` marks them. The curve is
       modelled by chords (default `levels` as for non-C1 schemes); the creases are

@@ -553,3 +553,48 @@ def test_batch_corner_errors():
                                    corners=["auto", list(range(0, 200, 20))])
     assert fitting.STATUSES[int(result.status[1])] == "invalid_input"
     assert not np.asarray(result.creases[1]).any()
+
+
+def hamilton(shares, total):
+    """Largest-remainder apportionment of `total` seats to real `shares`, plainly."""
+    seats = [int(np.floor(s)) for s in shares]
+    order = sorted(range(len(shares)), key=lambda i: -(shares[i] - seats[i]))
+    for i in order[: total - sum(seats)]:
+        seats[i] += 1
+    return seats
+
+
+@pytest.mark.parametrize("n", [9, 13, 23])
+def test_creases_are_apportioned_by_largest_remainders(n):
+    """An irregular hexagon (straight pieces, every share at least one span), its
+    vertices the corner samples: the spans between consecutive creases are Hamilton's
+    apportionment of n by edge length, computed here plainly, edge by edge, for the
+    samples started at several places, and reversed (which is what a mirror image
+    changes once `fit` has put its samples in their canonical order). Rounding the
+    cumulative shares from the first corner instead gives spans that depend on it."""
+    from fitting._init import corner_creases
+
+    V = np.array([[0.0, 0.0], [2.3, -0.4], [3.1, 1.2], [2.2, 2.9], [0.4, 2.6], [-0.7, 1.1]])
+    edges = np.linalg.norm(np.roll(V, -1, axis=0) - V, axis=1)
+    expected = hamilton(n * edges / edges.sum(), n)
+    per_edge = 40
+    u = np.arange(per_edge)[:, None] / per_edge
+    samples = np.concatenate([V[i] + u * (V[(i + 1) % 6] - V[i]) for i in range(6)])
+    flags = np.zeros(len(samples), bool)
+    flags[::per_edge] = True
+    allocate = jax.jit(corner_creases, static_argnums=2)
+    for shift in (0, 7, 85, 170):
+        for reverse in (False, True):
+            points, corner = np.roll(samples, shift, axis=0), np.roll(flags, shift)
+            if reverse:
+                points, corner = points[::-1], corner[::-1]
+            creases, position = allocate(points, corner, n)
+            # Each edge's spans: from its first vertex's crease to the next's (the
+            # other way round when the samples run backwards).
+            at = np.round(np.asarray(position)[corner]).astype(int)
+            vertex = np.argmin(np.linalg.norm(points[corner][:, None] - V, axis=2), 1)
+            crease_of = dict(zip(vertex, at))
+            step = -1 if reverse else 1
+            spans = [step * (crease_of[(i + 1) % 6] - crease_of[i]) % n for i in range(6)]
+            assert spans == expected, (shift, reverse, spans, expected)
+            assert np.sum(np.asarray(creases)) == 6
