@@ -84,8 +84,8 @@ def fit_tolerance(
     When none does, up to `n_max` or within `max_fits` fits, or because the error stops
     falling as n grows (more slowly than n^-0.5 twice in a row: the samples' own
     resolution, noise, or the pixel staircase limit it; or fits stuck in local minima,
-    so `n_max` is then tried once, and the search goes on between it and the counts
-    below if it fits), the fit of smallest error is
+    so twice the largest count tried, at most `n_max`, is then tried once, and the
+    search goes on from there), the fit of smallest error is
     returned with the status `tolerance_not_reached` (`converged` False, the reason and
     the error reached in the warning), as `on_failure` says. The figures stay those of
     that fit: `rms` and `max_error` are measured as in any fit (two-sided, in the
@@ -234,10 +234,18 @@ def fit_tolerance(
                     if stalls >= 2:
                         # A plateau can be the fits' local minima rather than a floor
                         # (STIXGeneral '&' at 1e-2 em: 1.09e-2 at 40, 1.15e-2 at 48,
-                        # 6.6e-3 at 100): the largest count once before giving up.
-                        stalled = True
-                        attempt(len(counts) - 1)
-                        continue
+                        # 6.6e-3 at 100): twice the count once before giving up (not
+                        # n_max, whose fit can cost minutes on a traced contour).
+                        retry = bisect.bisect_left(counts, 2 * counts[k])
+                        if not stalled and retry > k:
+                            stalled = True
+                            attempt(min(retry, len(counts) - 1))
+                            continue
+                        stopped = ("the error stopped falling as n grew (more slowly than "
+                                   f"n^-{_STALL} twice in a row)"
+                                   + (f", and n = {counts[k]} did not fit either"
+                                      if stalled else ""))
+                        break
                     if fall > 0:
                         exponent = float(np.clip(fall, _STALL, 6.0))
             grow = (errors[k] / tolerance) ** (1 / exponent) if math.isfinite(errors[k]) else 2

@@ -172,16 +172,21 @@ def test_a_floor_stops_the_search_and_returns_the_best(monkeypatch):
     assert len(calls) < 8
 
 
-def test_a_plateau_below_n_max_tries_n_max_before_giving_up(monkeypatch):
+def test_a_plateau_is_tried_past_once(monkeypatch):
     """Errors that stop falling for a while and fall again (fits stuck in local minima:
     STIXGeneral '&' at 1e-2 em gave 1.09e-2 at 40, 1.15e-2 at 48 and 6.6e-3 at 100,
-    `benchmarks/results/fit_tolerance.md`): after two stalls the largest count is
-    tried, it fits, and the search bisects below it to the smallest count that fits."""
-    calls = scripted(monkeypatch, lambda n: 0.3 / n if n <= 20 else 0.0105 if n < 100 else 0.005)
-    result = fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 0.01, max_fits=10)
-    assert bool(result.converged)
-    assert result.control_points.shape[0] == min(n for n in LADDER + [130] if n >= 100)
-    assert 130 in calls and len(calls) == len(set(calls)) <= 10
+    `benchmarks/results/fit_tolerance_before_apportion.md`): after two stalls twice the
+    largest count tried is fitted, it fits, and the search bisects below it to the
+    smallest count that fits (the previous code gave up at 32). A plateau that goes on
+    stops the search after that one retry."""
+    calls = scripted(monkeypatch, lambda n: 0.3 / n if n <= 20 else 0.0105 if n < 64 else 0.005)
+    result = fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 0.01)
+    assert bool(result.converged) and result.control_points.shape[0] == 64
+    assert 56 in calls and len(calls) == len(set(calls)) <= 8
+    calls = scripted(monkeypatch, lambda n: 0.3 / n if n <= 20 else 0.0105)
+    with pytest.warns(RuntimeWarning, match="stopped falling.*n = 64 did not fit either"):
+        fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 0.01)
+    assert max(calls) == 64
 
 
 def test_non_finite_errors_are_misses(monkeypatch):
