@@ -178,7 +178,8 @@ def test_a_plateau_is_tried_past_once(monkeypatch):
     `benchmarks/results/fit_tolerance_before_apportion.md`): after two stalls twice the
     largest count tried is fitted, it fits, and the search bisects below it to the
     smallest count that fits (the previous code gave up at 32). A plateau that goes on
-    stops the search after that one retry."""
+    stops the search after that one retry; one far above the tolerance (more than 1.5x)
+    is a floor, and is not retried."""
     calls = scripted(monkeypatch, lambda n: 0.3 / n if n <= 20 else 0.0105 if n < 64 else 0.005)
     result = fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 0.01)
     assert bool(result.converged) and result.control_points.shape[0] == 64
@@ -187,6 +188,11 @@ def test_a_plateau_is_tried_past_once(monkeypatch):
     with pytest.warns(RuntimeWarning, match="stopped falling.*n = 64 did not fit either"):
         fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 0.01)
     assert max(calls) == 64
+    calls = scripted(monkeypatch, lambda n: 0.3 / n if n <= 20 else 0.0155)
+    with pytest.warns(RuntimeWarning, match=r"stopped falling as n grew \(more slowly than n\^-0.5 "
+                      r"twice in a row\); none"):
+        fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 0.01)
+    assert calls == [16, 24, 64]  # and not 128
 
 
 def test_non_finite_errors_are_misses(monkeypatch):
