@@ -154,6 +154,11 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
     return itemsize * (10 * N * n + searches + 400 * m) + ordering
 
 
+class MemoryBudgetError(ValueError):
+    """A fit estimated to need more than its `memory_budget` (`check_memory`); a
+    `ValueError`, so that callers may tell it from other invalid input."""
+
+
 def check_memory(caller, m, pad_to, n, levels, scheme, boundary, dtype, memory_budget,
                  ordered):
     """Refuse, before anything is allocated, a fit estimated (`fit_memory`) to need
@@ -161,7 +166,7 @@ def check_memory(caller, m, pad_to, n, levels, scheme, boundary, dtype, memory_b
     budget = checked_budget(memory_budget, f"{caller}(memory_budget=...)")
     need = fit_memory(max(m, pad_to), n, levels, scheme, boundary, dtype, ordered)
     if need > budget:
-        raise ValueError(
+        raise MemoryBudgetError(
             f"`{caller}` of {max(m, pad_to)} samples with {n} control points at levels="
             f"{levels} would need about {need / 1024**3:.3g} GiB, above memory_budget="
             f"{int(budget):,} bytes. Use fewer samples (resample the outline: a few hundred "

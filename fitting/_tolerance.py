@@ -28,7 +28,7 @@ from jaxtyping import ArrayLike, Float
 import jaxsubdiv as js
 from jaxsubdiv.validation import check_boundary, is_traced, min_points, static_int
 
-from ._checks import check_on_failure, float_array
+from ._checks import MemoryBudgetError, check_on_failure, float_array
 from ._fit import fit
 from ._params import fitted_names
 from ._result import FitResult, FitStatus, status_code
@@ -190,18 +190,30 @@ def fit_tolerance(
     if counts[0] != n_min:
         counts.insert(0, n_min)
 
-    tried: dict[int, FitResult] = {}
+    tried: dict[int, FitResult | None] = {}
     errors: dict[int, float] = {}
 
-    def attempt(i: int) -> float:
+    too_large = []  # the smallest count found above memory_budget, if any
+
+    def attempt(i: int) -> None:
         n = counts[i]
-        # Each fit's own non-convergence is judged once, for the one returned.
-        result = fit(target, scheme, n, on_failure="ignore", **options)
+        try:
+            # Each fit's own non-convergence is judged once, for the one returned.
+            result = fit(target, scheme, n, on_failure="ignore", **options)
+        except MemoryBudgetError:
+            if not tried:
+                raise  # not even the first count fits in memory_budget: fit's own error
+            if i < max(tried):  # (the default levels fall as n grows: not monotone)
+                tried[i], errors[i] = None, math.inf
+                return
+            # Going up: search below this count, and say so if nothing there is within.
+            too_large[:] = [n]
+            del counts[i:]
+            return
         value = float(getattr(result, error))
         tried[i], errors[i] = result, value if math.isfinite(value) else math.inf
         if on_trial is not None:
             on_trial(n, result)
-        return errors[i]
 
     def ok(i):
         return errors[i] <= tolerance
@@ -227,6 +239,10 @@ def fit_tolerance(
                 stopped = (f"the error stopped falling as n grew (more slowly than n^-{_STALL} "
                            f"twice in a row), and n_max={counts[-1]} did not fit either"
                            if stalled else f"no count up to n_max={counts[-1]} fitted")
+                if too_large:
+                    stopped = (f"no count up to n = {counts[-1]} fitted, and n = "
+                               f"{too_large[0]} would need more than memory_budget (raise it, "
+                               "or resample the outline)")
                 break
             below = [q for q in tried if q < k]
             if below:
@@ -268,7 +284,8 @@ def fit_tolerance(
             f"fit_tolerance: n = {counts[met[0]]} is within the tolerance, but max_fits="
             f"{max_fits} ran out before n = {counts[met[0] - 1]} was tried: a smaller count "
             "may be within it too.", RuntimeWarning, stacklevel=2)
-    best = met[0] if met else min(tried, key=lambda k: (errors[k], counts[k]))
+    best = met[0] if met else min((k for k in tried if tried[k] is not None),
+                                  key=lambda k: (errors[k], counts[k]))
     result = tried[best]
     if not met:
         text = (

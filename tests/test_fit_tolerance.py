@@ -195,6 +195,34 @@ def test_a_plateau_is_tried_past_once(monkeypatch):
     assert calls == [16, 24, 64]  # and not 128
 
 
+def test_counts_above_the_memory_budget_bound_the_search(monkeypatch):
+    """A count whose fit would need more than `memory_budget` (fit raises before
+    allocating) ends the search going up: the best fit below it is returned with
+    the reason, not the error (a 1024-px glyph traced at 0.3 px reached 640 control
+    points and the command failed after 70 s). Not even the first count within it:
+    fit's own error."""
+    from fitting._checks import MemoryBudgetError
+
+    calls = []
+
+    def fake_fit(target, scheme, n, **options):
+        if n > limit:
+            raise MemoryBudgetError(f"`fit` with {n} control points would need more")
+        calls.append(n)
+        e = 0.5 / n
+        return ScriptedFit(np.zeros((n, 2)), e, e, jnp.asarray(0, jnp.int32))
+
+    monkeypatch.setattr(tolerance_search, "fit", fake_fit)
+    limit = 40
+    with pytest.warns(RuntimeWarning, match="n = 48 would need more than memory_budget"):
+        result = fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 1e-3)
+    assert result.control_points.shape[0] == 40 and max(calls) == 40
+    assert fitting.STATUSES[int(result.status)] == "tolerance_not_reached"
+    limit = 8
+    with pytest.raises(MemoryBudgetError):
+        fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 1e-3)
+
+
 def test_non_finite_errors_are_misses(monkeypatch):
     calls = scripted(monkeypatch, lambda n: math.nan if n in (16, 20) else n**-2.0)
     result = fitting.fit_tolerance(CIRCLE, js.CubicBSpline(), 1e-3)
