@@ -348,9 +348,17 @@ def profile_start(objective: Objective, data: FitData, y0: dict, tol, max_steps)
     minimum with them more than 1e-3 off in 15 of 17 cases (by up to 0.87). So the parameters are
     first held at `objective.profile` values each (`profile_grid`) and at the start `y0`,
     the control points fitted at each (one after another in one compiled loop,
-    `jax.lax.map`, which measured 3-4x faster than a `vmap` of them on CPU; each from
-    its own linear fit, the start's from `y0`'s control points), and the joint fit starts
-    from the fit of lowest loss. The default solver never accepts a step that raises the
+    `jax.lax.map`, which measured 3-4x faster than a `vmap` of them on CPU, and 1.3-4x
+    with the grid's fits limited to 15 steps; each from its own linear fit, the start's
+    from `y0`'s control points), and the joint fit starts from the fit of lowest loss.
+    The profile is most of `fit_params=True`'s time (`benchmarks/results/
+    fit_params_after.md`), and what is cheaper measured worse (2026-12-05): continuing
+    the start's fit to the grid's values (one Newton step of the control points at each,
+    the feet held; a fraction of the time) inherited its local minimum and recovered the
+    true parameters in 2 of the 9 recovery tests (`tests/test_fit.py`); limiting the
+    grid's fits to 15 steps cut the time by a median 20% (up to 35%) and lost one
+    recovery of 17 in `bench_fit_quality.py` (t = 0.75 from 0.03), 8 steps also one of
+    the tests. The default solver never accepts a step that raises the
     loss, so the joint fit's loss is at most that of the fit with the parameters held at
     their start (with `max_steps` None, for optimistix's solvers, the profile's fits
     take the default solver's limit of 500 steps).

@@ -35,6 +35,7 @@ import jaxsubdiv as js
 from jaxsubdiv import AbstractCurveScheme
 
 from ._curve import (
+    Band,
     _window_project,
     all_distances,
     band_basis,
@@ -473,8 +474,18 @@ class Objective(eqx.Module):
         points' sliding along the curve almost undamped: it converged only linearly on
         smooth outlines (measured: 100+ steps), this model in a handful. $\kappa$ is kept
         above $|C'|^2 / 2$ (a sample near its foot's center of curvature). The
-        control-point blocks are assembled in closed form (the curve is linear in them);
-        only scheme-parameter columns, if any, come from forward-mode autodiff.
+        control-point blocks are assembled in closed form (the curve is linear in them).
+        So are the scheme parameters' (`names`): the curve depends on them only through
+        its tables, so their columns of $B$ and $B'$ are the derivatives of the tables'
+        rows at the feet times the control points (forward mode through the tables
+        alone, `_table_tangents`), with the mixed term $r \cdot \partial^2 C / \partial
+        P \partial q$ (the curve is bilinear in rows and points) and without $r \cdot
+        \partial^2 C / \partial q^2$ (Gauss-Newton in the parameters: adding it did not
+        shorten fits, measured). A step of the joint fit then costs 1.0-1.7x a step with
+        the parameters fixed, where autodiff through the residuals cost 1.2-4.5x
+        (n = 16, 32; 2026-12-05, `benchmarks/results/fit_params_after.md`). With pinned
+        ends the pin map depends on the parameters too, and `_parameter_blocks` (autodiff)
+        assembles them.
 
         `feet` are the foot points to use (`feet(y, args)` when None).
         """
@@ -567,15 +578,66 @@ class Objective(eqx.Module):
         if self.pivots:  # the chain rule through the linear pin map P = M Q + b
             T = jnp.kron(self.pin_map(args, A)[0], eye)
             gradient, hessian = T.T @ gradient, T.T @ hessian @ T
+            if self.names:
+                gradient, hessian = self._parameter_blocks(y, args, feet, hessian)
+            return loss, gradient, hessian
         if self.names:
-            gradient, hessian = self._parameter_blocks(y, args, feet, hessian)
+            # The parameters' columns, like the control points': the curve depends on
+            # them only through its tables, so the derivatives of the tables' rows at
+            # the feet (`_table_tangents`) take the place of the rows.
+            drows, dslopes, dheld = self._table_tangents(y, args, banded, tau, held_tau)
+            Cq = jnp.einsum("pmw,mwd->mpd", drows, P[window])  # dC/dq at each foot
+            slope_q = jnp.einsum("pmw,mwd->mpd", dslopes, P[window])  # dC'/dq
+            u_q = (jnp.einsum("mpd,md->mp", Cq, slope)
+                   + jnp.einsum("mpd,md->mp", slope_q, gap))
+            held_q = jnp.einsum("pkw,kwd->kpd", dheld, P[held_window])
+            spread_q = jnp.einsum("kd,kpd->kp", jnp.where(active[:, None], direction, 0.0),
+                                  held_q)
+            # Cross blocks (control point j, coordinate c; parameter k) per window.
+            local_cross = (w[:, None, None, None]
+                           * (rows[:, :, None, None] * jnp.swapaxes(Cq, 1, 2)[:, None]
+                              + jnp.moveaxis(drows, 0, -1)[:, :, None] * gap[:, None, :, None])
+                           ).reshape(m, width * d, -1)
+            local_cross -= inverse[:, None, None] * U[:, :, None] * u_q[:, None, :]
+            held_cross = weight * spread[:, :, None] * spread_q[:, None, :]
+            cross_blocks = total(jnp.concatenate([local_cross, held_cross]))
+            cross = jnp.zeros((n * d, Cq.shape[1]), dtype).at[index].add(cross_blocks)
+            corner = (jnp.einsum("m,mpd,mqd->pq", w, Cq, Cq)
+                      - jnp.einsum("m,mp,mq->pq", inverse, u_q, u_q)
+                      + weight * spread_q.T @ spread_q)
+            gradient_q = (jnp.einsum("m,mpd,md->p", w, Cq, gap)
+                          + weight * spread_q.T @ excess)
+            gradient = jnp.concatenate([gradient, gradient_q])
+            hessian = jnp.block([[hessian, cross], [cross.T, corner]])
         return loss, gradient, hessian
+
+    def _table_tangents(self, y, args, banded, tau, held_tau):
+        """Derivatives with respect to the (unconstrained, flattened) scheme parameters
+        of the curve's rows at the feet `tau` (position and tangent) and at the held
+        curve samples: each `(p, rows, width)`, by forward mode through the tables alone
+        (p directions; `band_rows` is linear in the tables)."""
+        flat_q, unravel_q = ravel_pytree(y["params"])
+
+        def ends(q):
+            scheme = from_unconstrained(args.scheme, self.names, unravel_q(q))
+            return self.basis_of(scheme, args.target.dtype, args.creases)[-1].ends
+
+        tangents = jnp.moveaxis(jax.jacfwd(ends)(flat_q), -1, 0)  # (p, N, 4, width)
+
+        def rows_at(ends, at):
+            table = Band(start=banded.start, ends=ends)
+            return band_rows(table, at, self.n, self.closed, self.hermite)[1:3]
+
+        drows, dslopes = jax.vmap(rows_at, in_axes=(0, None))(tangents, tau)
+        dheld, _ = jax.vmap(rows_at, in_axes=(0, None))(tangents, held_tau)
+        return drows, dslopes, dheld
 
     def _parameter_blocks(self, y, args, feet, hessian):
         """The gradient and Hessian with the scheme parameters' rows and columns, in
         Gauss-Newton form `J^T r`, `J^T J` of the residuals `r` (`residuals_at`), the
         control-point block kept exact (`hessian`). `ravel_pytree(y)` puts the control
-        points first.
+        points first. Used with pinned ends (`pivots`), whose pin map also depends on
+        the parameters; otherwise `quadratic_model` assembles them in closed form.
 
         The parameter columns `J_q` of the Jacobian come from forward-mode autodiff (one
         direction per parameter), and everything that multiplies the control-point
