@@ -481,11 +481,13 @@ class Objective(eqx.Module):
         alone, `_table_tangents`), with the mixed term $r \cdot \partial^2 C / \partial
         P \partial q$ (the curve is bilinear in rows and points) and without $r \cdot
         \partial^2 C / \partial q^2$ (Gauss-Newton in the parameters: adding it did not
-        shorten fits, measured). A step of the joint fit then costs 1.0-1.7x a step with
-        the parameters fixed, where autodiff through the residuals cost 1.2-4.5x
-        (n = 16, 32; 2026-12-05, `benchmarks/results/fit_params_after.md`). With pinned
-        ends the pin map depends on the parameters too, and `_parameter_blocks` (autodiff)
-        assembles them.
+        shorten fits, measured). A step of the joint fit then costs a median 1.55x
+        (1.1-3.6x) a step with the parameters fixed, where autodiff through the
+        residuals cost 2.1x (1.3-3.9x); most of the rest is building the tables at the
+        parameters' values every step (n = 16, 32; 2026-12-05,
+        `benchmarks/results/fit_params_after.md` and `fit_params_e1790a5.md`). With
+        pinned ends the pin map depends on the parameters too, and `_parameter_blocks`
+        (autodiff) assembles them.
 
         `feet` are the foot points to use (`feet(y, args)` when None).
         """
