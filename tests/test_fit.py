@@ -897,17 +897,16 @@ def test_model_matches_finite_differences_of_its_loss(scheme, hermite, n, bounda
     np.testing.assert_allclose(2 * float(v @ hessian @ v), curvature, rtol=2e-2)
 
 
-@pytest.mark.parametrize(
-    "scheme, names, hermite",
-    [(js.FourPoint(0.08), ("w",), True), (js.SplitTweak(0.4), ("t",), True),
-     (js.CornerCutting(0.3, 0.8), ("r", "s"), False)],
-    ids=["four_point", "split_tweak", "corner_cutting"],
-)
-def test_model_with_parameters_matches_finite_differences_of_its_loss(scheme, names, hermite):
-    """With scheme parameters fitted, the model's gradient (the parameters' entries by
-    forward mode, the control points' through one reverse-mode pullback) against
-    central finite differences of the loss with the feet found afresh, along a random
-    direction in control points and (unconstrained) parameters together."""
+#: Schemes with parameters, the fitted names and whether their fit uses the Hermite model.
+parameter_model_cases = [
+    (js.FourPoint(0.08), ("w",), True), (js.SplitTweak(0.4), ("t",), True),
+    (js.CornerCutting(0.3, 0.8), ("r", "s"), False),
+]
+
+
+def _parameter_model(scheme, names, hermite):
+    """The model of an 8-point closed fit with `names` fitted, jitted, and a point `y`
+    near (not at) the fit's optimum, with the random generator that drew it."""
     from fitting._checks import default_levels
     from fitting._objective import FitData, Objective
 
@@ -925,9 +924,20 @@ def test_model_with_parameters_matches_finite_differences_of_its_loss(scheme, na
     rng = np.random.default_rng(5)
     y = {"control": fit.control_points + 0.01 * rng.standard_normal((n, 2)),
          "params": {k: jnp.asarray(v + 0.1) for k, v in scheme.to_unconstrained(names).items()}}
+    return jax.jit(lambda y: objective.quadratic_model(y, args)), y, rng
+
+
+@pytest.mark.parametrize("scheme, names, hermite", parameter_model_cases,
+                         ids=["four_point", "split_tweak", "corner_cutting"])
+def test_model_with_parameters_matches_finite_differences_of_its_loss(scheme, names, hermite):
+    """With scheme parameters fitted, the model's gradient (assembled in closed form,
+    the parameters' entries from the tables' derivatives) against central finite
+    differences of the loss with the feet found afresh, along a random direction in
+    control points and (unconstrained) parameters together."""
+    model, y, rng = _parameter_model(scheme, names, hermite)
+    n = y["control"].shape[0]
     direction = {"control": jnp.asarray(rng.standard_normal((n, 2))),
                  "params": {k: jnp.asarray(rng.standard_normal()) for k in names}}
-    model = jax.jit(lambda y: objective.quadratic_model(y, args))
     along = lambda h: jax.tree.map(lambda a, b: a + h * b, y, direction)
     loss = lambda h: float(model(along(h))[0])
     _, gradient, hessian = model(y)
@@ -939,12 +949,8 @@ def test_model_with_parameters_matches_finite_differences_of_its_loss(scheme, na
     np.testing.assert_allclose(hessian, hessian.T, rtol=1e-12, atol=1e-12)
 
 
-@pytest.mark.parametrize(
-    "scheme, names, hermite",
-    [(js.FourPoint(0.08), ("w",), True), (js.SplitTweak(0.4), ("t",), True),
-     (js.CornerCutting(0.3, 0.8), ("r", "s"), False)],
-    ids=["four_point", "split_tweak", "corner_cutting"],
-)
+@pytest.mark.parametrize("scheme, names, hermite", parameter_model_cases,
+                         ids=["four_point", "split_tweak", "corner_cutting"])
 def test_model_parameter_columns_match_differences_of_its_gradient(scheme, names, hermite,
                                                                   monkeypatch):
     """The control points' rows of the parameters' columns of the model's Hessian
@@ -957,25 +963,12 @@ def test_model_parameter_columns_match_differences_of_its_gradient(scheme, names
     2.3e-3; without the mixed term 2-6%, and with the Gauss-Newton blocks of the
     residuals assembled before 2026-12-05 1.2-5%."""
     import fitting._objective as objective_module
-    from fitting._checks import default_levels
-    from fitting._objective import FitData, Objective
 
+    model, y, rng = _parameter_model(scheme, names, hermite)
+    # Read when `model` is traced (its first call, below): after the fit, so that no
+    # program of `fitting.fit` is compiled, cached or exported without the term.
     monkeypatch.setattr(objective_module, "BACK_WEIGHT", 0.0)
-    samples, _ = _small_problem(60)
-    samples = (samples - samples.mean(0)) / 1.3
-    m, n = samples.shape[0], 8
-    levels = default_levels(n, m, hermite)
-    objective = Objective(n=n, levels=levels, boundary="closed", names=names,
-                          hermite=hermite, num_curve=_curve.curve_samples(scheme, n, levels,
-                                                                          "closed"),
-                          num_target=m)
-    args = FitData(target=samples, weights=jnp.ones(m), scheme=scheme,
-                   root_smoothing=jnp.sqrt(0.01))
-    fit = fitting.fit(samples, scheme, n, levels=levels, smoothing=0.01)
-    rng = np.random.default_rng(5)
-    y = {"control": fit.control_points + 0.01 * rng.standard_normal((n, 2)),
-         "params": {k: jnp.asarray(v + 0.1) for k, v in scheme.to_unconstrained(names).items()}}
-    model = jax.jit(lambda y: objective.quadratic_model(y, args))
+    n = y["control"].shape[0]
     _, _, hessian = model(y)
     h = 1e-5
     for _ in range(3):
@@ -987,12 +980,8 @@ def test_model_parameter_columns_match_differences_of_its_gradient(scheme, names
         assert np.max(np.abs(cross - difference)) < 5e-3 * np.max(np.abs(difference))
 
 
-@pytest.mark.parametrize(
-    "scheme, names, hermite",
-    [(js.FourPoint(0.08), ("w",), True), (js.SplitTweak(0.4), ("t",), True),
-     (js.CornerCutting(0.3, 0.8), ("r", "s"), False)],
-    ids=["four_point", "split_tweak", "corner_cutting"],
-)
+@pytest.mark.parametrize("scheme, names, hermite", parameter_model_cases,
+                         ids=["four_point", "split_tweak", "corner_cutting"])
 def test_model_hessian_with_parameters_matches_finite_differences_at_zero_residual(
         scheme, names, hermite):
     """The model's whole Hessian, the scheme parameters' rows and columns included
