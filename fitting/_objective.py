@@ -480,8 +480,9 @@ class Objective(eqx.Module):
         rows at the feet times the control points (forward mode through the tables
         alone, `_table_tangents`), with the mixed term $r \cdot \partial^2 C / \partial
         P \partial q$ (the curve is bilinear in rows and points) and without $r \cdot
-        \partial^2 C / \partial q^2$ (Gauss-Newton in the parameters: adding it did not
-        shorten fits, measured). A step of the joint fit then costs a median 1.55x
+        \partial^2 C / \partial q^2$ (Gauss-Newton in the parameters: with it, by
+        nested forward mode, the one fit tried stopped at a higher loss, 1.02e-2
+        against 8.3e-3). A step of the joint fit then costs a median 1.55x
         (1.1-3.6x) a step with the parameters fixed, where autodiff through the
         residuals cost 2.1x (1.3-3.9x); most of the rest is building the tables at the
         parameters' values every step (n = 16, 32; 2026-12-05,
