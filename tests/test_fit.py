@@ -633,6 +633,56 @@ def test_searches_in_blocks_of_points_give_the_same_distances(monkeypatch, sprea
     _assert_brute_force_distances(monkeypatch, points, polyline, True, fallback)
 
 
+#: (points, anchors, duplicated anchors): anchor counts below one group, not a multiple
+#: of `_curve.ANCHOR_GROUP`, and exact ties (an anchor repeated later).
+anchor_cases = [(50, 7, 0), (300, 100, 0), (200, 257, 5), (64, 96, 3)]
+
+
+@pytest.mark.parametrize("m, k, repeated", anchor_cases)
+def test_nearest_anchor_is_the_nearest_by_brute_force(m, k, repeated):
+    """`_nearest_anchor`'s two-level search (nearest group, then nearest anchor in it)
+    finds an anchor at the brute-force least distance, the first of exact ties, and
+    that distance."""
+    rng = np.random.default_rng(k)
+    anchors = rng.standard_normal((k, 2)) * 10.0 + 3.0
+    anchors[k - repeated:] = anchors[:repeated]  # ties: the first copy must win
+    points = anchors[rng.integers(0, k, m)] + rng.standard_normal((m, 2))
+    index, least = _curve._nearest_anchor(jnp.asarray(points), jnp.asarray(anchors))
+    exact = np.sum((points[:, None, :] - anchors[None]) ** 2, -1)
+    scale = np.max(np.sum(anchors**2, -1)) + np.max(np.sum(points**2, -1))
+    index = np.asarray(index)
+    np.testing.assert_allclose(exact[np.arange(m), index], exact.min(1), atol=1e-12 * scale)
+    np.testing.assert_allclose(np.asarray(least) + np.sum(points**2, -1), exact.min(1),
+                               atol=1e-12 * scale)
+    tied = np.flatnonzero(np.isin(index, np.arange(k - repeated, k)))
+    assert tied.size == 0, "a repeated anchor won over its first copy"
+
+
+@pytest.mark.parametrize("m, k, excluded", [(40, 10, 2), (300, 250, 2), (100, 64, 5)])
+def test_smallest_outside_matches_a_masked_minimum(m, k, excluded):
+    """`_smallest_outside` (the certificate's least value over the columns not
+    excluded, in two levels) equals a plain minimum over a masked array, with the
+    exclusions among the columns it is told to recompute, and +inf when every column is
+    excluded."""
+    rng = np.random.default_rng(m + k)
+    rows, columns = rng.standard_normal((m, 3)), rng.standard_normal((k, 3))
+    norms = rng.standard_normal(k)
+    near = rng.integers(0, k, (m, excluded))
+    value = norms[None, :] - 2 * rows @ columns.T
+    mask = np.zeros((m, k), bool)
+    mask[np.arange(m)[:, None], near] = True
+    expected = np.where(mask, np.inf, value).min(1)
+    near_j = jnp.asarray(near)
+    ours = _curve._smallest_outside(
+        jnp.asarray(rows), jnp.asarray(columns), jnp.asarray(norms), near_j,
+        lambda j: jnp.any(j[..., None] == near_j[:, None, None, :], axis=-1))
+    np.testing.assert_allclose(ours, expected, rtol=1e-12, atol=1e-12)
+    everything = _curve._smallest_outside(
+        jnp.asarray(rows[:3]), jnp.asarray(columns[:5]), jnp.asarray(norms[:5]),
+        jnp.zeros((3, 1), jnp.int32), lambda j: jnp.ones(j.shape, bool))
+    assert np.all(np.isinf(everything))
+
+
 def test_only_unsure_points_are_checked_against_every_segment(monkeypatch):
     """Points near an outline and a few far from it: the certificate is unsure of a few
     far ones, and only those (`_curve.RECHECK` at a time) are checked against every

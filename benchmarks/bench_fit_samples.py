@@ -1,0 +1,279 @@
+"""Fits of many samples: traced 1024-px bitmaps and long smooth outlines, this tree
+against a git revision, in one run.
+
+    python benchmarks/bench_fit_samples.py --before a32b9f9   # about 15 minutes on 2 cores
+    python benchmarks/bench_fit_samples.py --smoke            # one small image, seconds
+
+A fit's foot-point searches and its error measurement compare every sample with every
+`coarse`-th curve point (`fitting._curve`): at 5,000 samples on a 46,000-point curve
+that is most of the time (70% of a 1024-px glyph's fit was one `argmin`). Measured:
+
+- **images**: bitmaps of glyphs (DejaVu Serif 'S', 'g', '&'; STIXGeneral 'S', 'Q') and
+  a five-point star, scaled to 80% of a 1024-px square (and 'S' and the star at 256 px)
+  and rasterised as `bench_potrace.py` does; the PNG read by `jaxsubdiv.io.read_image`;
+  each contour fitted by `fitting.fit(points, CubicBSpline(), n,
+  corners=fitting.find_corners(points, pixel=1.0)[:n])` with n = m // 60 clipped to
+  12 ... 64 for m samples (what `jaxsubdiv fit` does for a PNG, at a count close to
+  potrace's). Time: all contours of the image, warm (median of `--repeats` after a
+  call that compiles), reading the image excluded.
+- **smooth**: a closed wavy outline (r = 1 + 0.3 cos 5t) of m = 2,000, 8,000 and 16,000
+  samples, n = 45, no corners.
+- **searches** (this tree only): the nearest of 2,880 anchors for 1,456 points and of
+  768 anchors for 5,461 points (one block of `_curve.BLOCK_PAIRS` pairs each, the two
+  shapes the glyph's fit and its error measurement use) by one `jnp.argmin` over the
+  points x anchors array against `_curve._nearest_anchor`'s two-level search; and the
+  certificate's test by a masked `jnp.any` against `_curve._smallest_outside`.
+
+Each version runs in fresh interpreters (float64), `--rounds` of them, the versions
+alternating (in turn first). Reported per case: warm seconds (median over rounds), the
+samples, the fits' steps summed, their largest reported RMS (the same in both versions
+when the change is a pure speed-up) and whether all converged.
+
+Writes `benchmarks/results/fit_samples.json` and `.md` (`--output` sets the JSON path).
+"""
+
+import argparse
+import json
+import pathlib
+import statistics
+import sys
+import tempfile
+import time
+
+
+BENCH = pathlib.Path(__file__).resolve().parent
+ROOT = BENCH.parent
+sys.path.insert(0, str(BENCH))
+import _common  # noqa: E402
+
+
+IMAGES = [("DejaVu Serif", "S", 1024), ("DejaVu Serif", "g", 1024),
+          ("DejaVu Serif", "&", 1024), ("STIXGeneral", "S", 1024),
+          ("STIXGeneral", "Q", 1024), ("analytic", "star", 1024),
+          ("DejaVu Serif", "S", 256), ("analytic", "star", 256)]
+SMOOTH = [2000, 8000, 16000]
+SMOKE_IMAGES = [("analytic", "star", 256)]
+SMOKE_SMOOTH = [2000]
+
+# The child: `child(spec)` in a fresh interpreter whose path starts with the version's
+# source tree, then this folder (for `bench_potrace`'s rasteriser).
+CHILD = ("import sys; sys.path[:0] = [sys.argv[1], sys.argv[2]]; import bench_fit_samples as b; "
+         "b.child(sys.argv[3])")
+
+
+def count_for(m: int) -> int:
+    return int(min(64, max(12, m // 60)))
+
+
+def child(spec_json: str) -> None:
+    """Time the cases of `spec` with the `fitting` and `jaxsubdiv` first on the path;
+    print one JSON line."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import matplotlib.image
+    import numpy as np
+
+    import fitting
+    import jaxsubdiv as js
+
+    spec = json.loads(spec_json)
+    repeats = spec["repeats"]
+    scheme = js.CubicBSpline()
+    out = {"fitting": str(pathlib.Path(fitting.__file__).parent), "cases": []}
+
+    def timed(run):
+        results = jax.block_until_ready(run())  # compiles
+        times = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            results = jax.block_until_ready(run())
+            times.append(time.perf_counter() - start)
+        return statistics.median(times), results
+
+    def record(name, samples, seconds, results):
+        out["cases"].append(dict(
+            case=name, samples=samples, seconds=seconds,
+            steps=sum(int(r.num_steps) for r in results),
+            rms=[float(r.rms) for r in results],
+            converged=all(bool(r.converged) for r in results)))
+
+    import bench_potrace as potrace
+
+    with tempfile.TemporaryDirectory() as tmp:
+        for family, char, size in spec["images"]:
+            raw = (potrace.analytic_contours(char) if family == "analytic"
+                   else potrace.glyph_contours(family, char))
+            bitmap = potrace.rasterise(potrace.place(raw, size), size)
+            png = pathlib.Path(tmp) / "image.png"
+            matplotlib.image.imsave(png, ~bitmap, cmap="gray", vmin=0, vmax=1)
+            contours = [c.points for c in js.io.read_image(png)]
+
+            def fit_all():
+                results = []
+                for points in contours:
+                    n = count_for(len(points))
+                    corners = fitting.find_corners(points, pixel=1.0)
+                    results.append(fitting.fit(points, scheme, n, corners=corners[:n],
+                                               on_failure="ignore"))
+                return results
+
+            seconds, results = timed(fit_all)
+            name = char if family == "analytic" else f"{family} '{char}'"
+            record(f"{name}, {size} px", sum(len(c) for c in contours), seconds, results)
+        for m in spec["smooth"]:
+            t = np.linspace(0, 2 * np.pi, m, endpoint=False)
+            radius = 1 + 0.3 * np.cos(5 * t)
+            points = 400 * np.stack([radius * np.cos(t), radius * np.sin(t)], 1)
+            seconds, results = timed(lambda: [fitting.fit(points, scheme, 45,
+                                                          on_failure="ignore")])
+            record(f"wavy outline, m = {m}", m, seconds, results)
+        if spec["searches"]:
+            out["searches"] = searches(repeats)
+    print(json.dumps(out))
+
+
+def searches(repeats: int) -> list:
+    """One block's nearest-anchor search and certificate test, one pass against two."""
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+
+    from fitting import _curve
+
+    def median_ms(f, *args):
+        f = jax.jit(f)
+        jax.block_until_ready(f(*args))
+        times = []
+        for _ in range(max(5, repeats)):
+            start = time.perf_counter()
+            jax.block_until_ready(f(*args))
+            times.append(time.perf_counter() - start)
+        return 1e3 * statistics.median(times)
+
+    rng = np.random.default_rng(0)
+    rows = []
+    for m, k in ((1456, 2880), (5461, 768)):
+        points = jnp.asarray(rng.standard_normal((m, 2)))
+        anchors = jnp.asarray(rng.standard_normal((k, 2)))
+        one = median_ms(lambda p, a: jnp.argmin(_curve._anchor_distance2(p, a), axis=1),
+                        points, anchors)
+        two = median_ms(lambda p, a: _curve._nearest_anchor(p, a)[0], points, anchors)
+        rows.append(dict(search="nearest anchor", points=m, anchors=k, one_pass_ms=one,
+                         two_level_ms=two))
+        rows3 = jnp.asarray(rng.standard_normal((m, 3)))
+        columns = jnp.asarray(rng.standard_normal((k, 3)))
+        norms = jnp.asarray(rng.standard_normal(k))
+        near = jnp.asarray(rng.integers(0, k, (m, 2)))
+        group = jnp.arange(k)
+
+        def masked(r, c, n, near):
+            value = n[None, :] - 2 * r @ c.T
+            excluded = jnp.any(group[None, :, None] == near[:, None, :], axis=2)
+            return jnp.any(~excluded & (value < 0), axis=1)
+
+        def two_level(r, c, n, near):
+            return _curve._smallest_outside(
+                r, c, n, near, lambda j: jnp.any(j[..., None] == near[:, None, None, :], -1)) < 0
+
+        rows.append(dict(search="certificate", points=m, anchors=k,
+                         one_pass_ms=median_ms(masked, rows3, columns, norms, near),
+                         two_level_ms=median_ms(two_level, rows3, columns, norms, near)))
+    return rows
+
+
+def markdown(run: dict) -> str:
+    versions = run["versions"]
+    before = "before" in versions
+    lines = [
+        "# Fits of many samples (`benchmarks/bench_fit_samples.py`)", "",
+        f"{run['date']}; {run['machine']}; load average at the start {run['load_start']}, "
+        f"at the end {run['load_end']} (1, 5, 15 min). `{run['command']}`; versions: "
+        + ", ".join(f"{k} = `{v}`" for k, v in versions.items())
+        + f"; {run['rounds']} fresh interpreter(s) per version"
+        + (", alternating" if before else "") + f", {run['repeats']} warm call(s) in each "
+        "(median over all). Closed cubic B-splines, float64; images: every contour of the "
+        "traced bitmap, n = m // 60 clipped to 12-64, corners in pixels; wavy outlines: "
+        "n = 45, no corners.", "",
+    ]
+    head = ["case", "samples", "after (s)", "steps", "largest RMS", "converged"]
+    if before:
+        head[3:3] = ["before (s)", "after / before", "steps before"]
+        head += ["largest RMS before", "converged before"]
+    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for row in run["cases"]:
+        after = row["after"]
+        cells = [row["case"], str(after["samples"]), f"{after['seconds']:.3f}",
+                 str(after["steps"]), f"{max(after['rms']):.4g}",
+                 "yes" if after["converged"] else "no"]
+        if before:
+            old = row["before"]
+            cells[3:3] = [f"{old['seconds']:.3f}", f"{after['seconds'] / old['seconds']:.2f}",
+                          str(old["steps"])]
+            cells += [f"{max(old['rms']):.4g}", "yes" if old["converged"] else "no"]
+        lines.append("| " + " | ".join(cells) + " |")
+    if run.get("searches"):
+        lines += ["", "One block of a search (this tree), ms (median):", "",
+                  "| search | points | anchors | one pass | two levels | ratio |",
+                  "|---|---:|---:|---:|---:|---:|"]
+        for s in run["searches"]:
+            lines.append(f"| {s['search']} | {s['points']} | {s['anchors']} | "
+                         f"{s['one_pass_ms']:.2f} | {s['two_level_ms']:.2f} | "
+                         f"{s['one_pass_ms'] / s['two_level_ms']:.1f}x |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--smoke", action="store_true", help="one small image (for CI)")
+    parser.add_argument("--before", help="a git revision to measure too, in the same run")
+    parser.add_argument("--rounds", type=int, default=None, help="interpreters per version")
+    parser.add_argument("--repeats", type=int, default=None, help="warm calls in each")
+    parser.add_argument("--output", type=pathlib.Path, default=None, help="JSON path")
+    args = parser.parse_args()
+    output = args.output or _common.RESULTS / (
+        "fit_samples_smoke.json" if args.smoke else "fit_samples.json")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    rounds = args.rounds or (1 if args.smoke else 2)
+    repeats = args.repeats or (1 if args.smoke else 3)
+    from bench_analysis import _commit, _extract  # the `--before` tree, as it makes it
+
+    run = _common.header(command=" ".join(["python", "benchmarks/bench_fit_samples.py",
+                                           *sys.argv[1:]]), rounds=rounds, repeats=repeats)
+    spec = dict(images=SMOKE_IMAGES if args.smoke else IMAGES,
+                smooth=SMOKE_SMOOTH if args.smoke else SMOOTH, repeats=repeats)
+    with tempfile.TemporaryDirectory() as tmp:
+        versions = {"after": (ROOT, _commit("HEAD") + "+worktree")}
+        if args.before:
+            versions = {"before": (_extract(args.before, pathlib.Path(tmp)),
+                                   _commit(args.before)), **versions}
+        run["versions"] = {name: commit for name, (_, commit) in versions.items()}
+        measured = {name: [] for name in versions}
+        for r in range(rounds):
+            order = list(versions) if r % 2 == 0 else list(reversed(versions))
+            for name in order:
+                tree = versions[name][0]
+                this = dict(spec, searches=name == "after" and r == 0)
+                result = _common.child_json(CHILD, str(tree), str(BENCH), json.dumps(this),
+                                            what=f"{name} (round {r + 1})", timeout=3600)
+                if pathlib.Path(result["fitting"]).resolve() != (tree / "fitting").resolve():
+                    raise SystemExit(f"{name} imported fitting from {result['fitting']}")
+                measured[name].append(result)
+                print(f"round {r + 1}, {name}: "
+                      + ", ".join(f"{c['case']} {c['seconds']:.2f}s" for c in result["cases"]),
+                      flush=True)
+    run["cases"] = []
+    for i, case in enumerate(measured["after"][0]["cases"]):
+        row = {"case": case["case"]}
+        for name, results in measured.items():
+            first = results[0]["cases"][i]
+            row[name] = dict(first, seconds=statistics.median(
+                r["cases"][i]["seconds"] for r in results))
+        run["cases"].append(row)
+    run["searches"] = measured["after"][0].get("searches")
+    run["load_end"] = _common.load()
+    _common.write_results(output, run, markdown)
+
+
+if __name__ == "__main__":
+    main()
