@@ -6,7 +6,7 @@ against a git revision, in one run.
 
 A fit's foot-point searches and its error measurement compare every sample with every
 `coarse`-th curve point (`fitting._curve`): at 5,000 samples on a 46,000-point curve
-that is most of the time (70% of a 1024-px glyph's fit was one `argmin`). Measured:
+that was most of the time (compare the versions). Measured:
 
 - **images**: bitmaps of glyphs (DejaVu Serif 'S', 'g', '&'; STIXGeneral 'S', 'Q') and
   a five-point star, scaled to 80% of a 1024-px square (and 'S' and the star at 256 px)
@@ -18,11 +18,14 @@ that is most of the time (70% of a 1024-px glyph's fit was one `argmin`). Measur
   call that compiles), reading the image excluded.
 - **smooth**: a closed wavy outline (r = 1 + 0.3 cos 5t) of m = 2,000, 8,000 and 16,000
   samples, n = 45, no corners.
-- **searches** (this tree only): the nearest of 2,880 anchors for 1,456 points and of
-  768 anchors for 5,461 points (one block of `_curve.BLOCK_PAIRS` pairs each, the two
-  shapes the glyph's fit and its error measurement use) by one `jnp.argmin` over the
-  points x anchors array against `_curve._nearest_anchor`'s two-level search; and the
-  certificate's test by a masked `jnp.any` against `_curve._smallest_outside`.
+- **searches** (this tree only; random points and anchors, one block of
+  `_curve.BLOCK_PAIRS` pairs each, in the two shapes the glyph's fit and its error
+  measurement use: 1,456 points x 2,880 anchors and 5,461 x 768): the nearest anchor
+  by one `jnp.argmin` over the points x anchors array against
+  `_curve._nearest_anchor`'s two levels; and a simplified certificate test (a masked
+  `jnp.any`, without the square roots of the code before) against
+  `_curve._smallest_outside`. Isolated like this the gain is smaller, and varies more
+  from run to run, than inside the fits.
 
 Each version runs in fresh interpreters (float64), `--rounds` of them, the versions
 alternating (in turn first). Reported per case: warm seconds (median over rounds), the

@@ -113,10 +113,11 @@ def _nearest_anchor(points, anchors):
     Two levels: the nearest of groups of `ANCHOR_GROUP` consecutive anchors by its
     smallest distance, then the nearest anchor in that group (the first where
     distances tie). On CPU a plain `argmin` over the points x anchors array is a
-    variadic reduction that XLA neither vectorises nor fuses with the matrix product:
-    measured 20 ms against 3.2 ms this way for 1,456 points and 2,880 anchors (jax
-    0.10.2, 2 cores), and 70% of a 1024-px glyph's fit (5,224 samples) was spent
-    there."""
+    variadic reduction that XLA does not fuse with the matrix product as it does a
+    `min`: with it, and with the certificate's mask (`_smallest_outside`), fits of
+    5,000-7,000 samples (1024-px glyphs) took 1.3-2.5x and of 16,000 samples 3.2x the
+    time they take now, with the same steps and errors
+    (`benchmarks/results/fit_samples.md`, jax 0.10.2, 2 cores)."""
     k, d = anchors.shape
     group = min(ANCHOR_GROUP, k)
     # Padding: copies of the last anchor, never nearer than it (ties go to the first).
@@ -367,9 +368,9 @@ def _smallest_outside(rows, columns, norms, near, excluded):
 
     Two levels, as in `_nearest_anchor`: the smallest of each group by one fused
     reduction over the rows x columns products, the row's own groups then recomputed
-    with the exclusions. A mask over the whole rows x columns array instead took
-    12.6 ms per block of 4M pairs (XLA's CPU reductions of a masked array are not
-    vectorised), 23% of a 1024-px glyph's error measurement."""
+    with the exclusions, instead of a mask over the whole rows x columns array, whose
+    reduction XLA's CPU backend does not fuse with the product (see `_nearest_anchor`
+    for the measured effect)."""
     k, d = columns.shape
     group = min(ANCHOR_GROUP, k)
     pad = -k % group
