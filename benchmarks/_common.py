@@ -29,6 +29,29 @@ def arguments(doc: str, name: str):
     return args, output
 
 
+def versions_arguments(doc: str, name: str, rounds: tuple[int, int], repeats: tuple[int, int],
+                       smoke_help: str = "a small run, for CI"):
+    """`(args, output, rounds, repeats)` for a benchmark that measures this tree, and
+    with `--before REV` a git revision too, in fresh interpreters: `--smoke`,
+    `--before`, `--rounds`, `--repeats` and `--output` (the JSON path, as `arguments`
+    makes it). `rounds` and `repeats` are the defaults `(with --smoke, without)`."""
+    parser = argparse.ArgumentParser(description=doc.split("\n")[0])
+    parser.add_argument("--smoke", action="store_true", help=smoke_help)
+    parser.add_argument("--before", help="a git revision to measure too, in the same run")
+    parser.add_argument("--rounds", type=int, default=None,
+                        help=f"fresh interpreters per version (default {rounds[1]}; "
+                             f"{rounds[0]} with --smoke)")
+    parser.add_argument("--repeats", type=int, default=None,
+                        help=f"timed calls per case in each (default {repeats[1]}; "
+                             f"{repeats[0]} with --smoke)")
+    parser.add_argument("--output", type=pathlib.Path, default=None, help="JSON path")
+    args = parser.parse_args()
+    output = args.output or RESULTS / (f"{name}_smoke.json" if args.smoke else f"{name}.json")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    return (args, output, args.rounds or rounds[not args.smoke],
+            args.repeats or repeats[not args.smoke])
+
+
 def header(**extra) -> dict:
     """The run's date (UTC), machine and load average at the start (1, 5, 15 min);
     record `load_end` with `load()` when the run ends."""

@@ -35,7 +35,6 @@ when the change is a pure speed-up) and whether all converged.
 Writes `benchmarks/results/fit_samples.json` and `.md` (`--output` sets the JSON path).
 """
 
-import argparse
 import json
 import pathlib
 import statistics
@@ -227,18 +226,9 @@ def markdown(run: dict) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--smoke", action="store_true", help="one small image (for CI)")
-    parser.add_argument("--before", help="a git revision to measure too, in the same run")
-    parser.add_argument("--rounds", type=int, default=None, help="interpreters per version")
-    parser.add_argument("--repeats", type=int, default=None, help="warm calls in each")
-    parser.add_argument("--output", type=pathlib.Path, default=None, help="JSON path")
-    args = parser.parse_args()
-    output = args.output or _common.RESULTS / (
-        "fit_samples_smoke.json" if args.smoke else "fit_samples.json")
-    output.parent.mkdir(parents=True, exist_ok=True)
-    rounds = args.rounds or (1 if args.smoke else 2)
-    repeats = args.repeats or (1 if args.smoke else 3)
+    args, output, rounds, repeats = _common.versions_arguments(
+        __doc__, "fit_samples", rounds=(1, 2), repeats=(1, 3),
+        smoke_help="one small image (for CI)")
     from bench_analysis import _commit, _extract  # the `--before` tree, as it makes it
 
     run = _common.header(command=" ".join(["python", "benchmarks/bench_fit_samples.py",

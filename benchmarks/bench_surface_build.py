@@ -36,7 +36,6 @@ Writes `benchmarks/results/surface_build.json` and `.md` (`surface_build_smoke.*
 `--smoke`; `--output` sets the JSON path, the Markdown goes beside it).
 """
 
-import argparse
 import hashlib
 import json
 import os
@@ -256,21 +255,9 @@ def _markdown(report: dict) -> str:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--smoke", action="store_true",
-                        help="tiny mesh, level 1, one call, no CGAL (for CI)")
-    parser.add_argument("--before", help="a git revision to measure too, in the same run")
-    parser.add_argument("--rounds", type=int, default=None,
-                        help="fresh interpreters per version (default 3; 1 with --smoke)")
-    parser.add_argument("--repeats", type=int, default=None,
-                        help="timed calls per case in each (default 2; 1 with --smoke)")
-    parser.add_argument("--output", type=pathlib.Path, default=None, help="JSON path")
-    args = parser.parse_args()
-    output = args.output or _common.RESULTS / (
-        "surface_build_smoke.json" if args.smoke else "surface_build.json")
-    output.parent.mkdir(parents=True, exist_ok=True)
-    rounds = args.rounds or (1 if args.smoke else 3)
-    repeats = args.repeats or (1 if args.smoke else 2)
+    args, output, rounds, repeats = _common.versions_arguments(
+        __doc__, "surface_build", rounds=(1, 3), repeats=(1, 2),
+        smoke_help="tiny mesh, level 1, one call, no CGAL (for CI)")
     cases = _cases(args.smoke, repeats)
     from bench_analysis import _commit, _extract  # the `--before` tree, as it makes it
 
