@@ -18,6 +18,9 @@ that was most of the time (compare the versions). Measured:
   call that compiles), reading the image excluded.
 - **smooth**: a closed wavy outline (r = 1 + 0.3 cos 5t) of m = 2,000, 8,000 and 16,000
   samples, n = 45, no corners.
+- **glyphs**: fits of the usual size, which must not get slower: the outer contour of
+  DejaVu Sans 'S' and 'a' (400 samples, `tests/helpers.py`) at n = 16, 32, 64, and 'S'
+  at 1,500 samples, n = 32 (median of `--repeats`, at least 15, warm calls).
 - **searches** (this tree only; random points and anchors, one block of
   `_curve.BLOCK_PAIRS` pairs each, in the two shapes the glyph's fit and its error
   measurement use: 1,456 points x 2,880 anchors and 5,461 x 768): the nearest anchor
@@ -54,13 +57,17 @@ IMAGES = [("DejaVu Serif", "S", 1024), ("DejaVu Serif", "g", 1024),
           ("STIXGeneral", "Q", 1024), ("analytic", "star", 1024),
           ("DejaVu Serif", "S", 256), ("analytic", "star", 256)]
 SMOOTH = [2000, 8000, 16000]
+#: (glyph, samples, control points): fits of the usual size, which must not get slower.
+GLYPHS = [("S", 400, 16), ("S", 400, 32), ("S", 400, 64), ("a", 400, 16), ("a", 400, 32),
+          ("a", 400, 64), ("S", 1500, 32)]
 SMOKE_IMAGES = [("analytic", "star", 256)]
 SMOKE_SMOOTH = [2000]
+SMOKE_GLYPHS = [("S", 400, 16)]
 
 # The child: `child(spec)` in a fresh interpreter whose path starts with the version's
 # source tree, then this folder (for `bench_potrace`'s rasteriser).
-CHILD = ("import sys; sys.path[:0] = [sys.argv[1], sys.argv[2]]; import bench_fit_samples as b; "
-         "b.child(sys.argv[3])")
+CHILD = ("import sys; sys.path[:0] = [sys.argv[1], sys.argv[2], sys.argv[2] + '/../tests']; "
+         "import bench_fit_samples as b; b.child(sys.argv[3])")
 
 
 def count_for(m: int) -> int:
@@ -87,7 +94,8 @@ def child(spec_json: str) -> None:
     def timed(run):
         results = jax.block_until_ready(run())  # compiles
         times = []
-        for _ in range(repeats):
+        # Fits of milliseconds: more calls, so that the median is steady.
+        for _ in range(repeats if results[0].curve.shape[0] > 4096 else max(15, repeats)):
             start = time.perf_counter()
             results = jax.block_until_ready(run())
             times.append(time.perf_counter() - start)
@@ -130,6 +138,12 @@ def child(spec_json: str) -> None:
             seconds, results = timed(lambda: [fitting.fit(points, scheme, 45,
                                                           on_failure="ignore")])
             record(f"wavy outline, m = {m}", m, seconds, results)
+        from helpers import glyph_outline  # this repository's tests/helpers.py
+
+        for char, m, n in spec["glyphs"]:
+            points = glyph_outline(char, m)
+            seconds, results = timed(lambda: [fitting.fit(points, scheme, n)])
+            record(f"DejaVu Sans '{char}', m = {m}, n = {n}", m, seconds, results)
         if spec["searches"]:
             out["searches"] = searches(repeats)
     print(json.dumps(out))
@@ -234,7 +248,8 @@ def main() -> None:
     run = _common.header(command=" ".join(["python", "benchmarks/bench_fit_samples.py",
                                            *sys.argv[1:]]), rounds=rounds, repeats=repeats)
     spec = dict(images=SMOKE_IMAGES if args.smoke else IMAGES,
-                smooth=SMOKE_SMOOTH if args.smoke else SMOOTH, repeats=repeats)
+                smooth=SMOKE_SMOOTH if args.smoke else SMOOTH,
+                glyphs=SMOKE_GLYPHS if args.smoke else GLYPHS, repeats=repeats)
     with tempfile.TemporaryDirectory() as tmp:
         versions = {"after": (ROOT, _commit("HEAD") + "+worktree")}
         if args.before:

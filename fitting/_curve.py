@@ -105,20 +105,31 @@ def _in_row_blocks(function, pairs_per_row: int, *rows):
 #: Anchors per group in `_nearest_anchor`'s two-level search.
 ANCHOR_GROUP = 32
 
+#: From this many anchors (or groups of segments, for the certificate) on, the searches
+#: run in two levels; below it one pass over all pairs is cheaper (the second level's
+#: gathers cost more than the pass saves: measured on 400-sample fits).
+TWO_LEVELS_FROM = 512
+
 
 def _nearest_anchor(points, anchors):
     """Each point's nearest anchor and the squared distance to it (less |p|^2, as
     `_anchor_distance2`), in blocks of points when there are many pairs.
 
-    Two levels: the nearest of groups of `ANCHOR_GROUP` consecutive anchors by its
-    smallest distance, then the nearest anchor in that group (the first where
-    distances tie). On CPU a plain `argmin` over the points x anchors array is a
-    variadic reduction that XLA does not fuse with the matrix product as it does a
-    `min`: with it, and with the certificate's mask (`_smallest_outside`), fits of
-    5,000-7,000 samples (1024-px glyphs) took 1.3-2.5x and of 16,000 samples 3.2x the
-    time they take now, with the same steps and errors
-    (`benchmarks/results/fit_samples.md`, jax 0.10.2, 2 cores)."""
+    From `TWO_LEVELS_FROM` anchors on, two levels: the nearest of groups of
+    `ANCHOR_GROUP` consecutive anchors by its smallest distance, then the nearest
+    anchor in that group (the first where distances tie); below, one `argmin`. On CPU
+    an `argmin` over the points x anchors array is a variadic reduction that XLA does
+    not fuse with the matrix product as it does a `min`: with it, and with the
+    certificate's mask (`_smallest_outside`), fits of 5,000-7,000 samples (1024-px
+    glyphs) took 1.3-2.5x and of 16,000 samples 3.2x the time they take now, with the
+    same steps and errors (`benchmarks/results/fit_samples.md`, jax 0.10.2, 2 cores)."""
     k, d = anchors.shape
+    if k < TWO_LEVELS_FROM:
+        def one_pass(p):
+            d2 = _anchor_distance2(p, anchors)
+            return jnp.argmin(d2, axis=1), jnp.min(d2, axis=1)
+
+        return _in_row_blocks(one_pass, k, points)
     group = min(ANCHOR_GROUP, k)
     # Padding: copies of the last anchor, never nearer than it (ties go to the first).
     padded = jnp.concatenate([anchors, jnp.repeat(anchors[-1:], -k % group, axis=0)])
@@ -439,6 +450,12 @@ def nearest_on_polyline(
 
     searched_groups = _searched_groups(N, k, coarse, closed, count)
 
+    def unsure_rows_one_pass(p, found, nearest):
+        to_center = _anchor_distance2(p, center) + jnp.sum(p**2, -1)[:, None]
+        lower = jnp.sqrt(jnp.maximum(to_center, 0.0)) - radius[None, :]
+        searched = searched_groups(nearest, jnp.broadcast_to(jnp.arange(k), (p.shape[0], k)))
+        return jnp.any(~searched & (lower < found[:, None] + margin), axis=1)
+
     def unsure_rows(p, found, nearest):
         # A group g not searched that may hold a nearer point: |p - c_g| - r_g < f, with
         # f the found distance plus the margin; squared (both sides non-negative), that
@@ -454,7 +471,8 @@ def nearest_on_polyline(
     columns = jnp.concatenate([center, radius[:, None]], axis=1)
     norms = jnp.sum(center**2, -1) - radius**2
 
-    unsure = _in_row_blocks(unsure_rows, k, points, found, nearest)
+    unsure = _in_row_blocks(unsure_rows if k >= TWO_LEVELS_FROM else unsure_rows_one_pass, k,
+                            points, found, nearest)
 
     # Every segment checked, for the unsure points only (`_redo`): typically a few
     # points of hundreds are unsure, and checking the whole block that held them took

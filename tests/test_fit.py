@@ -571,9 +571,17 @@ def _executions(monkeypatch, module, name):
     return calls
 
 
+@pytest.fixture(params=["one pass", "two levels"])
+def search_levels(request, monkeypatch):
+    """The nearest-anchor search and the certificate both ways: one pass over all
+    pairs (small searches), and in two levels (`_curve.TWO_LEVELS_FROM` anchors on)."""
+    monkeypatch.setattr(_curve, "TWO_LEVELS_FROM", 10**9 if request.param == "one pass" else 1)
+    return request.param
+
+
 @pytest.mark.parametrize("closed", [True, False])
 @pytest.mark.parametrize("spread, fallback", [(0.002, False), (0.3, True)])
-def test_distances_equal_brute_force(monkeypatch, closed, spread, fallback):
+def test_distances_equal_brute_force(monkeypatch, closed, spread, fallback, search_levels):
     """`distances` certifies its fast answer, else checks every segment; either way it
     equals the brute-force distance."""
 
@@ -595,7 +603,8 @@ def _assert_brute_force_distances(monkeypatch, points, polyline, closed, fallbac
 
 
 @pytest.mark.parametrize("closed", [True, False])
-def test_distances_to_a_padded_polyline_are_certified_without_fallback(monkeypatch, closed):
+def test_distances_to_a_padded_polyline_are_certified_without_fallback(monkeypatch, closed,
+                                                                       search_levels):
     """A polyline padded to a shape bucket with copies of its last vertex (`count` real
     ones, as the fit pads samples): distances from points near it, also near a closed
     outline's seam and an open one's ends, equal brute force on the unpadded polyline,
@@ -619,7 +628,8 @@ def test_distances_to_a_padded_polyline_are_certified_without_fallback(monkeypat
 
 
 @pytest.mark.parametrize("spread, fallback", [(0.002, False), (0.3, True)])
-def test_searches_in_blocks_of_points_give_the_same_distances(monkeypatch, spread, fallback):
+def test_searches_in_blocks_of_points_give_the_same_distances(monkeypatch, spread, fallback,
+                                                              search_levels):
     """With few point pairs allowed at once (`_curve.BLOCK_PAIRS`, so that memory stays
     linear in the samples), the nearest anchors, the certificate and the global search
     run in blocks of 10 points (one point for the global search) and still give the
@@ -639,10 +649,10 @@ anchor_cases = [(50, 7, 0), (300, 100, 0), (200, 257, 5), (64, 96, 3)]
 
 
 @pytest.mark.parametrize("m, k, repeated", anchor_cases)
-def test_nearest_anchor_is_the_nearest_by_brute_force(m, k, repeated):
-    """`_nearest_anchor`'s two-level search (nearest group, then nearest anchor in it)
-    finds an anchor at the brute-force least distance, the first of exact ties, and
-    that distance."""
+def test_nearest_anchor_is_the_nearest_by_brute_force(m, k, repeated, search_levels):
+    """`_nearest_anchor`, in one pass or in two levels (nearest group, then nearest
+    anchor in it), finds an anchor at the brute-force least distance, the first of
+    exact ties, and that distance."""
     rng = np.random.default_rng(k)
     anchors = rng.standard_normal((k, 2)) * 10.0 + 3.0
     anchors[k - repeated:] = anchors[:repeated]  # ties: the first copy must win
