@@ -106,8 +106,10 @@ def _in_row_blocks(function, pairs_per_row: int, *rows):
 ANCHOR_GROUP = 32
 
 #: From this many anchors (or groups of segments, for the certificate) on, the searches
-#: run in two levels; below it one pass over all pairs is cheaper (the second level's
-#: gathers cost more than the pass saves: measured on 400-sample fits).
+#: run in two levels; below it one pass over all pairs is cheaper (with two levels
+#: throughout, 400-sample fits took 1.13-1.3x as long: the second level's gathers cost
+#: more than the pass saves on 56-128 anchors; measured 2026-12-05 alternating
+#: processes, a side run not kept in the benchmark).
 TWO_LEVELS_FROM = 512
 
 
@@ -121,7 +123,7 @@ def _nearest_anchor(points, anchors):
     an `argmin` over the points x anchors array is a variadic reduction that XLA does
     not fuse with the matrix product as it does a `min`: with it, and with the
     certificate's mask (`_smallest_outside`), fits of 5,000-7,000 samples (1024-px
-    glyphs) took 1.3-2.5x and of 16,000 samples 3.2x the time they take now, with the
+    glyphs) took 1.3-2.6x and of 16,000 samples 3.2x the time they take now, with the
     same steps and errors (`benchmarks/results/fit_samples.md`, jax 0.10.2, 2 cores)."""
     k, d = anchors.shape
     if k < TWO_LEVELS_FROM:
