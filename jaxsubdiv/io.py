@@ -156,9 +156,11 @@ def read_outlines(
       two curves adds their control points (and two inner points of each arc), to
       make a polygon. Point lists and PNG contours are their own nodes. Not with
       `samples`.
-    - `threshold`: for PNG, the gray level (or alpha level, for an image with
-      transparency) between 0 and 1 that separates the silhouette from the background.
-      Which side is the background is decided by the image border.
+    - `threshold`: for PNG, the gray level (or alpha level, for an image whose alpha
+      channel holds the silhouette) between 0 and 1 that separates the silhouette from
+      the background. Which side is the background is decided by the image border. An
+      alpha channel that puts under 0.1% of the pixels on the silhouette's side (only a
+      few pixels partly transparent) is not the silhouette; the luminance is read.
 
     **Returns:** a list of [`jaxsubdiv.io.Outline`][] (`points` `(m, 2)`, `closed`, and
     the `group` of contours that make one shape), at least one.

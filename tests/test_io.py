@@ -781,6 +781,34 @@ def test_png_ring_keeps_its_hole_and_alpha(tmp_path):
         assert np.sign(_signed_area(outline.points)) == sign
 
 
+def test_png_alpha_marking_only_specks_is_not_the_silhouette(tmp_path):
+    """An opaque disk image whose alpha channel only rounds off its four corner pixels
+    (as scikit-image's horse.png): the disk in the luminance is the silhouette, not the
+    four specks in the alpha channel (which gave four 4-point contours)."""
+    gray = _disk_image(60, 80, (25.0, 40.0), 17.0, 0.0, 1.0)
+    rgba = np.ones((60, 80, 4))
+    rgba[..., :3] = gray[..., None]
+    rgba[[0, 0, -1, -1], [0, -1, 0, -1], 3] = 0.43
+    path = tmp_path / "rounded.png"
+    matplotlib.image.imsave(path, rgba)
+    (outline,) = jio.read_outlines(path)
+    radius = np.hypot(outline.points[:, 0] - 40, outline.points[:, 1] - 34)
+    assert np.max(np.abs(radius - 17)) < 1.0
+
+
+def test_png_small_alpha_silhouette_without_luminance_is_read(tmp_path):
+    """A dot covering under 0.1% of the pixels in the alpha channel of an image of one
+    colour: the luminance holds no silhouette, so the alpha channel is still read."""
+    rgba = np.zeros((100, 100, 4))
+    rgba[..., 3] = _disk_image(100, 100, (50.0, 50.0), 1.5, 1.0, 0.0)
+    assert np.count_nonzero(rgba[..., 3] > 0.5) < 10
+    path = tmp_path / "dot.png"
+    matplotlib.image.imsave(path, rgba)
+    (outline,) = jio.read_outlines(path)
+    radius = np.hypot(outline.points[:, 0] - 50, outline.points[:, 1] - 49)
+    assert np.max(np.abs(radius - 1.5)) < 1.0
+
+
 # --- result JSON ---------------------------------------------------------------------
 
 
