@@ -147,9 +147,9 @@ def _add_input_options(parser, shape_samples: str, curves: str = "SVG curves and
 
 def _read_inputs(args, shape_samples: int | None = None, nodes: bool = False):
     """The outlines of INPUT, --shape or --text (exactly one of them). `shape_samples`:
-    points per contour for a built-in shape and for an SVG file's contours when
-    --samples is not given (None: the shape's polygon, and an SVG's straight-line
-    contours as their corners). `nodes`: without --samples, an SVG's and a glyph's
+    points per contour for a built-in shape, a glyph and an SVG file's contours when
+    --samples is not given (None: the shape's polygon, and an SVG's or a glyph's
+    straight-line contours as their corners). `nodes`: without --samples, an SVG's and a glyph's
     contours are their nodes (the polygon it was drawn on) rather than samples."""
     js = _js()
     given = [
@@ -173,10 +173,13 @@ def _read_inputs(args, shape_samples: int | None = None, nodes: bool = False):
             points = resample_polyline(points, samples, True)
         return [js.io.Outline(points=points, closed=True)]
     nodes = nodes and args.samples is None
-    if args.text is not None:
-        return js.io.read_outlines(text=args.text, font=args.font, samples=args.samples,
-                                   nodes=nodes)
     samples = args.samples
+    if args.text is not None:
+        # A glyph's straight contours too ('E', '.'): their corners alone are too few
+        # samples to fit.
+        return js.io.read_outlines(text=args.text, font=args.font,
+                                   samples=samples if nodes else samples or shape_samples,
+                                   nodes=nodes)
     if samples is None and not nodes and str(args.input).lower().endswith(".svg"):
         samples = shape_samples
     return js.io.read_outlines(args.input, samples=samples, nodes=nodes)
@@ -410,6 +413,8 @@ def _fit(args) -> int:
     import numpy as np
 
     import fitting
+    from fitting._tolerance import ladder_floor
+    from jaxsubdiv._io.common import resample_polyline
     from jaxsubdiv.validation import check_creasable, min_points
 
     js = _js()
@@ -458,25 +463,49 @@ def _fit(args) -> int:
         )
     fitted = [p for p in _declarations()[args.scheme].parameters if p.fit_interval is not None]
     extra = len(fitted) if args.fit_params else 0
+    # Each contour needs at least as many samples as unknowns (2 per control point, and
+    # the fitted parameters). With --samples the user chose both numbers, and too few
+    # is an error. Otherwise a small contour (a hole or a dot of an icon, a speck of a
+    # traced image) gets fewer control points than --n, not a failed command: the
+    # largest count of fitting.fit_tolerance's ladder it determines (so that such
+    # contours share compiled programs). One too small even for the fewest control
+    # points is resampled along its polyline to as many points as those need.
+    counts, notes = [], {}
     for i, outline in enumerate(outlines):
-        if args.tolerance is not None:
-            # The smallest count searched must have as many samples as unknowns.
-            boundary = args.boundary or ("closed" if outline.closed else "open")
-            smallest = max(4, min_points(scheme, boundary))
-            if len(outline.points) < 2 * smallest + extra:
+        boundary = args.boundary or ("closed" if outline.closed else "open")
+        smallest = max(4, min_points(scheme, boundary))
+        if args.tolerance is None:
+            smallest = min(smallest, args.n)  # a smaller --n is fitting.fit's to judge
+        m = len(outline.points)
+        n = args.n
+        if args.samples is not None and m < 2 * (smallest if n is None else n) + extra:
+            if n is None:
                 raise ValueError(
-                    f"--tolerance: contour {i + 1} has {len(outline.points)} points, fewer "
-                    f"than the {2 * smallest + extra} unknowns of the smallest count searched "
+                    f"--tolerance: contour {i + 1} has {m} points, fewer than the "
+                    f"{2 * smallest + extra} unknowns of the smallest count searched "
                     f"({smallest} control points); use more --samples"
                 )
-            continue
-        unknowns = 2 * args.n + extra
-        if len(outline.points) < unknowns:
             raise ValueError(
-                f"--n {args.n} is too many control points for contour {i + 1}: its "
-                f"{len(outline.points)} points are fewer than the {unknowns} unknowns; use a "
-                "smaller --n or more --samples"
+                f"--n {n} is too many control points for --samples {args.samples}: a contour "
+                f"of {m} points has fewer than the {2 * n + extra} unknowns; use a smaller "
+                "--n or more --samples"
             )
+        if n is not None and m < 2 * n + extra:
+            n = max(smallest, ladder_floor(max(4, (m - extra) // 2)))
+            n = n if 2 * n + extra <= m else smallest
+            notes[i] = (f"{n} control points, not {args.n}: the contour's {m} samples "
+                        f"determine at most {max(0, (m - extra) // 2)}")
+        need = 2 * (smallest if n is None else n) + extra
+        if m < need:
+            points = resample_polyline(outline.points, need, boundary == "closed")
+            outlines[i] = js.io.Outline(points=points, closed=outline.closed, group=outline.group)
+            notes[i] = (notes.get(i, f"{n} control points") + f"; resampled along its polyline "
+                        f"from {m} to {need} points, as many as the unknowns")
+            if n is None:
+                notes[i] = (f"resampled along its polyline from {m} to {need} points, as "
+                            f"many as the unknowns of the fewest control points searched "
+                            f"({smallest})")
+        counts.append(n)
     print(
         f"fitting {_scheme_text(args.scheme, scheme)} curves with "
         + (f"{args.n} control points" if args.tolerance is None else
@@ -507,6 +536,8 @@ def _fit(args) -> int:
             f"contour {i + 1} of {count}: {len(outline.points)} samples, {boundary}"
             f"{' (ends pinned)' if pin_ends else ''}, size {size:.3g}"
         )
+        if i in notes:
+            print(f"  note       {notes[i]}")
         sys.stdout.flush()  # before the progress line on stderr
         start, compiles = time.perf_counter(), _compilations()
         corners = "auto" if args.corners == "auto" and creasable and boundary == "closed" else None
@@ -514,14 +545,14 @@ def _fit(args) -> int:
             # A traced bitmap's corners are measured in pixels (its staircase rounds
             # them over about one); strongest first, at most one per control point.
             corners = fitting.find_corners(outline.points, pixel=1.0)
-            corners = corners[: args.n] if args.tolerance is None else corners
+            corners = corners[: counts[i]] if args.tolerance is None else corners
         options = dict(
             levels=args.levels, boundary=boundary, pin_ends=pin_ends,
             fit_params=bool(args.fit_params), max_steps=args.max_steps,
             progress=False if args.quiet else "time", pad_to=pad_to, corners=corners,
         )
         if args.tolerance is None:
-            result = fitting.fit(outline.points, scheme, args.n, on_failure="ignore", **options)
+            result = fitting.fit(outline.points, scheme, counts[i], on_failure="ignore", **options)
         else:
             tried = []
             # The search's warning says why it stopped; it is printed with the failures.

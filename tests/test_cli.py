@@ -216,6 +216,20 @@ def test_fit_a_matplotlib_icon_by_default(capsys):
     assert len(relative) == 2 and max(relative) < 1e-3, relative
 
 
+def test_fit_a_glyph_of_straight_contours_by_default(capsys):
+    """DejaVu Sans 'E' and '.' are drawn with straight segments only: fitted, they are
+    sampled at 400 points like curved glyphs (they were read as their 12 and 4 corners
+    and the command stopped at 'its 4 points are fewer than the 64 unknowns'). The
+    square dot's four corners are found and kept: max error within 1% of its size."""
+    for text, corners in (("E", 12), (".", 4)):
+        status, out, err = cli(capsys, "fit", "--text", text, "--quiet")
+        assert status == 0, err
+        assert "contour 1 of 1: 400 samples" in out and "status     converged" in out
+        assert f"corners    {corners} " in out
+        relative = float(re.search(r"max error +\S+ \((\S+) of the size", out)[1])
+        assert relative < 1e-2, (text, relative)
+
+
 def test_fit_that_does_not_converge_exits_1_and_says_which(capsys, tmp_path):
     source = tmp_path / "circle.npy"
     np.save(source, _circle(100))
@@ -480,8 +494,7 @@ def test_bad_input_is_one_line_and_status_2(capsys, tmp_path):
         ("fit", *shape, "--scheme", "cubic-bspline", "--r", 0.2),
         ("fit", *shape, "--fit-params"),  # cubic B-spline has no parameters
         ("fit", *shape, "--boundary", "closed", "--pin-ends"),  # a closed curve has no ends
-        ("fit", ok, "--n", 8),  # more control points than the samples allow
-        ("fit", *shape, "--samples", 20, "--n", 16),
+        ("fit", *shape, "--samples", 20, "--n", 16),  # more control points than samples
         ("fit", ok, *shape),  # two inputs
         ("fit",),  # no input
         ("refine", "--text", "o", "--font", "No Such Font Family"),
@@ -512,7 +525,8 @@ def test_bad_input_is_one_line_and_status_2(capsys, tmp_path):
     assert "expected 2 values" in cli(capsys, "refine", tmp_path / "three.csv")[2]
     assert "--w does not apply to --scheme chaikin" in cli(
         capsys, "refine", *shape, "--scheme", "chaikin", "--w", 0.1)[2]
-    assert "--n 8 is too many control points" in cli(capsys, "fit", ok, "--n", 8)[2]
+    assert "--n 16 is too many control points for --samples 20" in cli(
+        capsys, "fit", *shape, "--samples", 20, "--n", 16)[2]
 
 
 # The valid ranges as the docstrings give them (not read from the registry): any finite
@@ -719,6 +733,32 @@ def test_every_hostile_file_is_one_line_through_the_command(capsys, tmp_path):
         assert lines[0].startswith(f"jaxsubdiv refine: error: {path}"), (name, err)
         for word in [words] if isinstance(words, str) else words:
             assert word in lines[0], (name, word, err)
+
+
+def test_fit_gives_small_contours_fewer_control_points(capsys, tmp_path):
+    """A file of a small circle of 30 points and a triangle of 3 (a hole and a speck of
+    an icon). With --n 20 (40 unknowns) the circle gets 14 control points, the largest
+    count of the tolerance search's ladder (4, 5, 6, 7, 8, 10, 12, 14, 16, 20, ...) its
+    30 samples determine, and the triangle, too small for the fewest (4 points, 8
+    unknowns), is resampled to 8 points on its polyline; the command used to fail for
+    the whole file. (Contours with enough samples keep --n: every other fit test.)"""
+    s = 2 * np.pi * np.arange(30) / 30
+    small = np.stack([3 + 0.2 * np.cos(s), 0.2 * np.sin(s)], 1)
+    triangle = np.array([[5.0, 0.0], [5.3, 0.0], [5.0, 0.3]])
+    blocks = ["\n".join(f"{float(x)!r},{float(y)!r}" for x, y in c) for c in (small, triangle)]
+    (tmp_path / "two.csv").write_text("\n\n".join(blocks) + "\n")
+    status, out, err = cli(capsys, "fit", tmp_path / "two.csv", "--n", 20, "--corners",
+                           "none", "-q", "-o", tmp_path / "fit.json")
+    assert status == 0, err
+    assert "14 control points, not 20: the contour's 30 samples determine at most 15" in out
+    assert "resampled along its polyline from 3 to 8 points" in out
+    saved = [js.io.read_result_json(tmp_path / f"fit-{i}.json") for i in (1, 2)]
+    assert [len(r.control_points) for r in saved] == [14, 4]
+    assert [r.info["samples"] for r in saved] == [30, 8]
+    # The circle is fitted as well as its 30 samples allow (scipy's B-spline).
+    curve = periodic_bspline(saved[0].control_points, 3)(np.linspace(0, 14, 1401))
+    radius = np.hypot(curve[:, 0] - 3, curve[:, 1])
+    assert np.abs(radius - 0.2).max() < 0.2 * 1e-3
 
 
 def test_fit_png_finds_a_traced_pentagons_corners_in_pixels(capsys, tmp_path):
