@@ -761,6 +761,43 @@ def test_fit_gives_small_contours_fewer_control_points(capsys, tmp_path):
     assert np.abs(radius - 0.2).max() < 0.2 * 1e-3
 
 
+def test_fit_pads_contours_of_similar_lengths_together():
+    """The contours of a file are padded in groups, from the longest down: each group
+    the lengths above half its longest, padded to that (a photo's contours of 214
+    samples were padded to its longest, 9,812, and the command ran for half an hour)."""
+    from jaxsubdiv._cli import _padded_lengths
+
+    lengths = [9812, 5000, 4906, 214, 300, 100, 151]
+    assert _padded_lengths(lengths) == [9812, 9812, 4906, 300, 300, 100, 300]
+    assert _padded_lengths([400, 400, 400]) == [400, 400, 400]
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="Linux /proc only")
+def test_fit_frees_compiled_programs_when_memory_mappings_crowd(monkeypatch):
+    """The command clears JAX's caches before a contour once the process's memory
+    mappings pass a share of vm.max_map_count: not at 100% of it, at once at 0%. (The
+    clearing itself is recorded, not done: the other tests' programs stay.)"""
+    import jax
+
+    from jaxsubdiv._cli import _free_programs_if_crowded
+
+    cleared = []
+    monkeypatch.setattr(jax, "clear_caches", lambda: cleared.append(True))
+    assert not _free_programs_if_crowded(1.0) and not cleared
+    assert _free_programs_if_crowded(0.0) and cleared == [True]
+
+
+def test_fit_with_more_corners_than_control_points_is_smooth(capsys, tmp_path):
+    """A star has 10 corners; with --n 8 creasing every control point would make an
+    octagon through 8 of its tips, so the fit is smooth and says why."""
+    status, out, err = cli(capsys, "fit", "--shape", "star", "--n", 8, "-q",
+                           "-o", tmp_path / "star.json")
+    assert status == 0, err
+    assert "10 corners found, more than the 8 control points: fitted without corners" in out
+    assert "corners    " not in out
+    assert len(js.io.read_result_json(tmp_path / "star.json").creases) == 0
+
+
 def test_fit_png_finds_a_traced_pentagons_corners_in_pixels(capsys, tmp_path):
     """A regular pentagon of radius 40 px (its corners turn 72 degrees), rotated 0.3
     rad, as a bitmap: a pixel is black when its centre is inside (matplotlib's
