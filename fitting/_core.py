@@ -311,8 +311,9 @@ def default_solver(objective: Objective, tol, valid_count, max_steps, progress=F
     """The default solver for `objective` (`FootPointLevenbergMarquardt`).
 
     It stops when two accepted steps in a row lower the loss (a sum of squared distances
-    over the valid samples) by less than `tol` of it, or the loss is below that count
-    times tol^2 (RMS `tol`)."""
+    over the valid samples) by less than `tol` of it, when 50 steps lowered it by at
+    most sqrt(tol) of it (a plateau), or the loss is below that count times tol^2 (RMS
+    `tol`)."""
     return FootPointLevenbergMarquardt(
         rtol=tol, atol=valid_count * tol**2, max_steps=max_steps,
         model=objective.quadratic_model, hint=objective.feet,

@@ -159,7 +159,8 @@ def fit(
     - `max_steps`: solver step limit (traced with the default solver; with optimistix's
       own solvers it is their static limit, and a new value compiles again).
     - `tol`: the default solver stops when two accepted steps in a row each lower the
-      loss (a sum of squared distances) by less than `tol` of itself, or the RMS
+      loss (a sum of squared distances) by less than `tol` of itself, when it fell by
+      at most `sqrt(tol)` of itself over the last 50 steps (a plateau), or the RMS
       distance is below `tol` of the outline's size; optimistix's solvers use it as
       their `rtol` and `atol`. Default 1e-7 in float64, 1e-5 in float32. When only the
       curve matters, `tol=1e-5` is up to 15x faster on outlines with a nearly free

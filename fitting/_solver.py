@@ -20,8 +20,11 @@ matrix's diagonal), not Marquardt's diagonal scaling: points sliding along strai
 of the curve leave some diagonal entries near zero, and those directions need damping.
 
 It stops (successfully) when two accepted steps in a row each lower the loss by at most
-`rtol * loss + atol` (one such step may be a heavily damped one far from a minimum), or
-when the loss is below `atol`; it reports
+`rtol * loss + atol` (one such step may be a heavily damped one far from a minimum), when
+the loss fell by at most `sqrt(rtol) * loss + atol` over the last `PLATEAU_STEPS` (50)
+steps (a plateau: the slow slide of a fit along a nearly flat valley, which otherwise
+ran out of steps with its figures no longer moving), or when the loss is below `atol`;
+it reports
 `nonlinear_divergence` when no step can lower the loss although the gradient does not
 vanish, and `nonlinear_max_steps_reached` after `max_steps` steps. Step 0 only evaluates
 the model at the starting point (so `num_steps` counts it).
@@ -103,6 +106,7 @@ class _State(eqx.Module):
     growth: Float[Array, ""]
     num_steps: Int[Array, ""]
     small: Bool[Array, ""]
+    checkpoint: Float[Array, ""]  # the loss at the last multiple of PLATEAU_STEPS
     terminate: Bool[Array, ""]
     result: optx.RESULTS
 
@@ -141,6 +145,7 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
             growth=jnp.asarray(2.0, dtype),
             num_steps=jnp.array(0),
             small=jnp.array(False),
+            checkpoint=jnp.asarray(jnp.inf, dtype),
             terminate=jnp.array(False),
             result=optx.RESULTS.successful,
         )
@@ -176,6 +181,7 @@ class FootPointLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
             growth=verdict.growth,
             num_steps=state.num_steps + 1,
             small=verdict.small,
+            checkpoint=verdict.checkpoint,
             terminate=verdict.terminate,
             result=verdict.result,
         )
@@ -226,8 +232,13 @@ class Verdict(eqx.Module):
     damping: Float[Array, ""]
     growth: Float[Array, ""]
     small: Bool[Array, ""]
+    checkpoint: Float[Array, ""]
     terminate: Bool[Array, ""]
     result: optx.RESULTS
+
+
+#: Steps between the plateau checks (`judge`).
+PLATEAU_STEPS = 50
 
 
 def judge(state, delta, raised, loss, rtol, atol, max_steps) -> Verdict:
@@ -255,7 +266,16 @@ def judge(state, delta, raised, loss, rtol, atol, max_steps) -> Verdict:
     # Converged when two accepted steps in a row lower the loss by at most rtol of it
     # (one small decrease may come from a heavily damped step, not a minimum).
     small = ~first & accept & (actual <= rtol * state.loss + atol)
-    done = (small & state.small) | (accept & (loss <= atol))
+    # A plateau: over the last PLATEAU_STEPS steps the loss fell by at most sqrt(rtol)
+    # of itself. The loss is then flat for every purpose of its figures (the RMS moves
+    # by under sqrt(rtol) / 2 of itself per PLATEAU_STEPS steps), although each step
+    # still lowers it by more than rtol: a slow slide of the control points along a
+    # nearly flat valley, where the Hessian is usually indefinite (newton_step inf).
+    kept = jnp.where(accept, loss, state.loss)
+    check = (state.num_steps + 1) % PLATEAU_STEPS == 0
+    plateau = check & (state.checkpoint - kept <= jnp.sqrt(rtol) * state.checkpoint + atol)
+    checkpoint = jnp.where(check | first, kept, state.checkpoint)
+    done = (small & state.small) | (accept & (loss <= atol)) | plateau
     # The damping cannot grow without bound: past 1e16 of the matrix's scale the steps
     # vanish in rounding and no step lowers the loss. That is a minimum to working
     # precision only if the gradient vanishes too; otherwise the model and the loss
@@ -273,5 +293,5 @@ def judge(state, delta, raised, loss, rtol, atol, max_steps) -> Verdict:
         ),
     )
     return Verdict(accept=accept, damping=jnp.minimum(damping, 1e20), growth=growth,
-                   small=jnp.where(accept, small, state.small),
+                   small=jnp.where(accept, small, state.small), checkpoint=checkpoint,
                    terminate=done | stuck | out_of_steps, result=result)
