@@ -38,14 +38,14 @@ import _common  # noqa: E402
 
 def _inputs(smoke: bool) -> list[tuple[str, list[str]]]:
     """(label, command-line arguments) of each input."""
-    import matplotlib
-    import skimage
-
-    icons = pathlib.Path(matplotlib.get_data_path()) / "images"
-    data = pathlib.Path(skimage.__file__).parent / "data"
     glyphs = [("text E", ["--text", "E"]), ("text .", ["--text", "."])]
     if smoke:
         return glyphs
+    import matplotlib
+    import skimage  # the bench extra
+
+    icons = pathlib.Path(matplotlib.get_data_path()) / "images"
+    data = pathlib.Path(skimage.__file__).parent / "data"
     names = ["back", "filesave", "help", "home", "subplots", "zoom_to_rect", "hand", "move"]
     files = ([icons / f"{n}.png" for n in names] + [icons / f"{n}_large.png" for n in names[:6]]
              + [icons / f"{n}.svg" for n in names]
