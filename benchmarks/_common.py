@@ -52,6 +52,18 @@ def versions_arguments(doc: str, name: str, rounds: tuple[int, int], repeats: tu
             args.repeats or repeats[not args.smoke])
 
 
+def versions(before: str | None, scratch: pathlib.Path) -> dict:
+    """`{name: (tree, commit)}` to measure: "after", this work tree (`HEAD+worktree`),
+    and with `before` that git revision too, extracted under `scratch` (listed first)."""
+    from bench_analysis import _commit, _extract
+
+    after = {"after": (pathlib.Path(__file__).resolve().parent.parent,
+                       _commit("HEAD") + "+worktree")}
+    if not before:
+        return after
+    return {"before": (_extract(before, scratch), _commit(before)), **after}
+
+
 def header(**extra) -> dict:
     """The run's date (UTC), machine and load average at the start (1, 5, 15 min);
     record `load_end` with `load()` when the run ends."""

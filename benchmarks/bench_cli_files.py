@@ -31,7 +31,6 @@ import time
 
 
 BENCH = pathlib.Path(__file__).resolve().parent
-ROOT = BENCH.parent
 sys.path.insert(0, str(BENCH))
 import _common  # noqa: E402
 
@@ -151,16 +150,12 @@ def main() -> None:
         __doc__, "cli_files", rounds=(1, 1), repeats=(1, 1),
         smoke_help="two glyphs (for CI)")
     timeout = 60.0 if args.smoke else 240.0
-    from bench_analysis import _commit, _extract  # the `--before` tree, as it makes it
 
     run = _common.header(command=" ".join(["python", "benchmarks/bench_cli_files.py",
                                            *sys.argv[1:]]), timeout=timeout)
     inputs = _inputs(args.smoke)
     with tempfile.TemporaryDirectory() as tmp:
-        versions = {"after": (ROOT, _commit("HEAD") + "+worktree")}
-        if args.before:
-            versions = {"before": (_extract(args.before, pathlib.Path(tmp)),
-                                   _commit(args.before)), **versions}
+        versions = _common.versions(args.before, pathlib.Path(tmp))
         run["versions"] = {name: commit for name, (_, commit) in versions.items()}
         run["rows"] = []
         for i, (label, arguments) in enumerate(inputs):

@@ -47,7 +47,6 @@ import time
 
 
 BENCH = pathlib.Path(__file__).resolve().parent
-ROOT = BENCH.parent
 sys.path.insert(0, str(BENCH))
 import _common  # noqa: E402
 
@@ -243,7 +242,6 @@ def main() -> None:
     args, output, rounds, repeats = _common.versions_arguments(
         __doc__, "fit_samples", rounds=(1, 2), repeats=(1, 3),
         smoke_help="one small image (for CI)")
-    from bench_analysis import _commit, _extract  # the `--before` tree, as it makes it
 
     run = _common.header(command=" ".join(["python", "benchmarks/bench_fit_samples.py",
                                            *sys.argv[1:]]), rounds=rounds, repeats=repeats)
@@ -251,10 +249,7 @@ def main() -> None:
                 smooth=SMOKE_SMOOTH if args.smoke else SMOOTH,
                 glyphs=SMOKE_GLYPHS if args.smoke else GLYPHS, repeats=repeats)
     with tempfile.TemporaryDirectory() as tmp:
-        versions = {"after": (ROOT, _commit("HEAD") + "+worktree")}
-        if args.before:
-            versions = {"before": (_extract(args.before, pathlib.Path(tmp)),
-                                   _commit(args.before)), **versions}
+        versions = _common.versions(args.before, pathlib.Path(tmp))
         run["versions"] = {name: commit for name, (_, commit) in versions.items()}
         measured = {name: [] for name in versions}
         for r in range(rounds):
