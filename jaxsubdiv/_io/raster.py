@@ -126,9 +126,8 @@ def read_image(path, threshold: float = 0.5, samples=None) -> list[Outline]:
     an alpha channel that only marks a few pixels (the rounded corners of scikit-image's
     `horse.png`) is not the silhouette, unless the luminance holds none. The background
     of a channel is the side of `threshold` that most border pixels are on; the
-    contours are the level-`threshold`
-    lines of that channel (`contourpy`, matplotlib's contouring engine, with linear
-    interpolation between pixel centers): the outer contours, clockwise, then the
+    contours are the level-`threshold` lines of that channel (`contourpy`, matplotlib's
+    contouring engine, with linear interpolation between pixel centers): the outer contours, clockwise, then the
     holes, counter-clockwise (as glyphs come from their fonts); specks with less than
     1% of the largest area are dropped. Pixel (row r, column c) of an image of height
     H is the point (c, H - 1 - r). All contours are one shape (group 0).
