@@ -12,6 +12,10 @@ from ._checks import (
 from ._corners import find_corners as find_corners
 from ._fit import fit as fit
 from ._init import order_samples as order_samples
+from ._pixels import (
+    PixelError as PixelError,
+    pixel_error as pixel_error,
+)
 from ._progress import progress_verbose as progress_verbose
 from ._result import (
     STATUSES as STATUSES,

@@ -31,6 +31,7 @@ from jaxsubdiv.validation import check_boundary, is_traced, min_points, static_i
 from ._checks import MemoryBudgetError, check_on_failure, float_array
 from ._fit import fit
 from ._params import fitted_names
+from ._pixels import _traced_samples, pixel_error
 from ._result import FitResult, FitStatus, status_code
 
 
@@ -68,7 +69,7 @@ def fit_tolerance(
     scheme: js.AbstractCurveScheme,
     tolerance: float,
     *,
-    error: Literal["max_error", "rms"] = "max_error",
+    error: Literal["max_error", "rms", "pixel"] = "max_error",
     n_min: int | None = None,
     n_max: int | None = None,
     max_fits: int = 8,
@@ -110,7 +111,11 @@ def fit_tolerance(
     - `tolerance`: the largest acceptable error, in the target's units (pixels for
       traced images), > 0.
     - `error`: which figure must be within it: `"max_error"` (default; the two-sided
-      maximum distance) or `"rms"` (the two-sided RMS).
+      maximum distance), `"rms"` (the two-sided RMS), or `"pixel"` for a contour traced
+      from a bitmap (`jaxsubdiv.io.read_image`, in pixels, not resampled): the
+      two-sided maximum error against its pixels, [`fitting.pixel_error`][], which does
+      not charge the curve for the corners the traced contour cuts short. The
+      result's own figures stay those against the samples.
     - `n_min`, `n_max`: the range of counts searched (default: the scheme's smallest
       valid count, at least 4; and a quarter of the samples, two samples per unknown in
       the plane, at least `n_min`; at most one sample per unknown). Both are among the
@@ -139,8 +144,9 @@ def fit_tolerance(
             f"`fit_tolerance(tolerance=...)` must be a finite number > 0 (in the target's "
             f"units); got {tolerance}."
         )
-    if error not in ("max_error", "rms"):
-        raise ValueError(f"`fit_tolerance(error=...)` must be 'max_error' or 'rms'; got {error!r}.")
+    if error not in ("max_error", "rms", "pixel"):
+        raise ValueError("`fit_tolerance(error=...)` must be 'max_error', 'rms' or 'pixel'; "
+                         f"got {error!r}.")
     max_fits = static_int(max_fits, "max_fits", minimum=1)
     target = float_array(target, "target")
     if is_traced(target):
@@ -160,6 +166,12 @@ def fit_tolerance(
             f"outline); got shape {target.shape}."
         )
     samples, d = target.shape
+    if error == "pixel":
+        # Checked before any fit: the samples must lie between pixel centres.
+        traced = _traced_samples(target, "fit_tolerance(target=...)` with `error='pixel'")
+        if options.get("boundary", "closed") != "closed":
+            raise ValueError("`fit_tolerance(error='pixel')` measures closed traced contours; "
+                             f"got boundary={options.get('boundary')!r}.")
     smallest = max(4, min_points(scheme, check_boundary(options.get("boundary", "closed"),
                                                         scheme)))
     corners = options.get("corners")
@@ -210,7 +222,8 @@ def fit_tolerance(
             too_large[:] = [n]
             del counts[i:]
             return
-        value = float(getattr(result, error))
+        value = (pixel_error(result, traced).max_error if error == "pixel"
+                 else float(getattr(result, error)))
         tried[i], errors[i] = result, value if math.isfinite(value) else math.inf
         if on_trial is not None:
             on_trial(n, result)

@@ -543,14 +543,18 @@ def _fit(args) -> int:
                             f"many as the unknowns of the fewest control points searched "
                             f"({smallest})")
         counts.append(n)
+    # A PNG's contours as traced (not resampled): in pixels, between pixel centres.
+    traced_image = (args.input is not None and args.samples is None
+                    and Path(args.input).suffix.lower() == ".png")
     print(
         f"fitting {_scheme_text(args.scheme, scheme)} curves with "
         + (f"{args.n} control points" if args.tolerance is None else
-           f"the fewest control points within {args.tolerance:g} (max error)")
+           f"the fewest control points within {args.tolerance:g} (max error"
+           + (" against the pixels)" if traced_image else ")"))
         + f" to {_source(args)}: {count} contour{'s' if count > 1 else ''}"
         + (" (scheme parameters fitted too)" if args.fit_params else "")
     )
-    results, sizes, pinned, stop_reasons = [], [], [], {}
+    results, sizes, pinned, stop_reasons, pixel_errors = [], [], [], {}, {}
     # Corners need a scheme whose closed curves take creases as data.
     try:
         check_creasable(scheme, "fit(corners=...)")
@@ -562,9 +566,6 @@ def _fit(args) -> int:
                   f"sampled at its control points, which {args.scheme} is not)")
     # Contours of similar lengths padded to one sample count: one compiled program each.
     pad_to = _padded_lengths([len(outline.points) for outline in outlines])
-    # A PNG's contours as traced (not resampled): in pixels, between pixel centres.
-    traced_image = (args.input is not None and args.samples is None
-                    and Path(args.input).suffix.lower() == ".png")
     for i, outline in enumerate(outlines):
         boundary = args.boundary or ("closed" if outline.closed else "open")
         pin_ends = args.pin_ends and boundary != "closed"
@@ -596,22 +597,32 @@ def _fit(args) -> int:
             fit_params=bool(args.fit_params), max_steps=args.max_steps,
             progress=False if args.quiet else "time", pad_to=pad_to[i], corners=corners,
         )
+        # A traced contour's error is also measured against its pixels, which do not
+        # charge the curve for the corners the contour cuts short; --tolerance then
+        # bounds that one (fitting.pixel_error).
+        pixels = (traced_image and boundary == "closed"
+                  and fitting._pixels.on_pixel_grid(outline.points))
         if args.tolerance is None:
             result = fitting.fit(outline.points, scheme, counts[i], on_failure="ignore", **options)
         else:
             tried = []
+
+            def measure(n, r, tried=tried, points=outline.points, pixels=pixels):
+                value = (fitting.pixel_error(r, points).max_error if pixels
+                         else float(r.max_error))
+                tried.append(f"{n}: {value:.2g}")
+
             # The search's warning says why it stopped; it is printed with the failures.
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 result = fitting.fit_tolerance(
                     outline.points, scheme, args.tolerance, on_failure="warn",
-                    on_trial=lambda n, r: tried.append(f"{n}: {float(r.max_error):.2g}"),
-                    **options,
+                    error="pixel" if pixels else "max_error", on_trial=measure, **options,
                 )
             stop_reasons[i] = next((str(w.message) for w in caught
                                     if str(w.message).startswith("fit_tolerance: ")), "")
-            print(f"  control    {result.control_points.shape[0]} points (max error by count "
-                  f"tried: {', '.join(tried)})")
+            print(f"  control    {result.control_points.shape[0]} points ("
+                  f"{'pixel' if pixels else 'max'} error by count tried: {', '.join(tried)})")
         result = jax.block_until_ready(result)
         if result.creases is not None:
             print(f"  corners    {int(np.sum(result.creases))} (creased control points)")
@@ -620,6 +631,12 @@ def _fit(args) -> int:
             print(f"  scheme     {_scheme_text(args.scheme, result.scheme)}")
         # Contours whose sample counts share a bucket reuse the first one's program.
         _print_errors(result, size, elapsed, compiles())
+        if pixels:
+            against = fitting.pixel_error(result, outline.points)
+            pixel_errors[i] = against.max_error
+            print(f"  vs pixels  {against.max_error:.3g} px (max error against the pixels: "
+                  f"pixel segments {against.max_segment_distance:.2g}, band of pixel "
+                  f"cells {against.max_band_distance:.2g})")
         results.append(result)
         sizes.append(size)
         pinned.append(pin_ends)
@@ -636,6 +653,8 @@ def _fit(args) -> int:
                 "size": size,
                 "pin_ends": pinned[i],
             }
+            if i in pixel_errors:  # a traced PNG contour: fitting.pixel_error, in pixels
+                info["pixel_error"] = pixel_errors[i]
             js.io.write_result_json(path, result, info=info)
             print(f"wrote {path}")
     elif args.output and not args.output.lower().endswith(".svg"):
@@ -692,10 +711,12 @@ def _fit(args) -> int:
     for i in failed:
         if results[i].message.startswith("tolerance_not_reached"):
             why = stop_reasons.get(i, "").removeprefix("fit_tolerance: ").split("; ")[0]
+            kind, value = (("pixel error", pixel_errors[i]) if i in pixel_errors
+                           else ("max error", float(results[i].max_error)))
             print(
                 f"jaxsubdiv fit: contour {i + 1} of {count}: no count of control points tried "
                 f"fitted within --tolerance {args.tolerance:g} ({why}); its result is the fit "
-                f"of smallest max error ({float(results[i].max_error):.3g}, "
+                f"of smallest {kind} ({value:.3g}, "
                 f"{results[i].control_points.shape[0]} control points)", file=sys.stderr,
             )
             continue
@@ -743,9 +764,10 @@ def _add_fit(sub):
                      help="control points per contour (default: 32, unless --tolerance)")
     fit.add_argument("--tolerance", type=float,
                      help="instead of --n: the fewest control points per contour whose "
-                     "two-sided max error is within this distance, in the input's units "
-                     "(pixels for images); counts from 4, 5, 6, 7, 8, 10, 12, ... up to a "
-                     "quarter of the contour's samples")
+                     "two-sided max error is within this distance, in the input's units; "
+                     "for a PNG, in pixels and against its pixels (fitting.pixel_error: "
+                     "corners its traced contour cuts short are not charged); counts from "
+                     "4, 5, 6, 7, 8, 10, 12, ... up to a quarter of the contour's samples")
     fittable = "; ".join(
         f"{name} " + ", ".join(p.name for p in _declarations()[name].parameters
                                if p.fit_interval is not None)
