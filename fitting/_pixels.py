@@ -215,9 +215,13 @@ def _segments_to_curve(samples: np.ndarray, points: np.ndarray) -> float:
     low[rows, along[rows]] = np.floor(samples[rows, along[rows]])
     high[rows, along[rows]] = np.ceil(samples[rows, along[rows]])
     t = np.linspace(0.0, 1.0, int(round(1 / PIXEL_SPACING)) + 1)
-    probes = low[:, None, :] + t[None, :, None] * (high - low)[:, None, :]
-    distance = _points_to_curve(probes.reshape(-1, 2), points, reduce=False)
-    return float(distance.reshape(len(samples), -1).min(axis=1).max())
+    largest = 0.0
+    for block in range(0, len(samples), 8192):  # bounded memory
+        a, b = low[block:block + 8192], high[block:block + 8192]
+        probes = a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]
+        distance = _points_to_curve(probes.reshape(-1, 2), points, reduce=False)
+        largest = max(largest, float(distance.reshape(len(a), -1).min(axis=1).max()))
+    return largest
 
 
 def _points_to_curve(probes: np.ndarray, points: np.ndarray, reduce: bool = True):

@@ -222,8 +222,12 @@ def fit_tolerance(
             too_large[:] = [n]
             del counts[i:]
             return
-        value = (pixel_error(result, traced).max_error if error == "pixel"
-                 else float(getattr(result, error)))
+        if error != "pixel":
+            value = float(getattr(result, error))
+        elif np.all(np.isfinite(np.asarray(result.curve))):
+            value = pixel_error(result, traced).max_error
+        else:
+            value = math.inf  # a failed fit (its own status says why): a miss
         tried[i], errors[i] = result, value if math.isfinite(value) else math.inf
         if on_trial is not None:
             on_trial(n, result)

@@ -406,6 +406,20 @@ def _print_errors(result, size: float, elapsed: float, preparing: str) -> None:
     print(f"  time       {elapsed:.2f} s" + (f" (including {preparing})" if preparing else ""))
 
 
+def _pixel_error(result, points):
+    """`fitting.pixel_error` of a fit, all inf for a fit whose curve is not finite (its
+    status says why)."""
+    import math
+
+    import numpy as np
+
+    import fitting
+
+    if not np.all(np.isfinite(np.asarray(result.curve))):
+        return fitting.PixelError(math.inf, math.inf, math.inf)
+    return fitting.pixel_error(result, points)
+
+
 def _free_programs_if_crowded(share: float = 0.5) -> bool:
     """`jax.clear_caches()` when this process's memory mappings pass `share` of the
     kernel's limit (`vm.max_map_count`, Linux). Every compiled fit program holds
@@ -608,8 +622,7 @@ def _fit(args) -> int:
             tried = []
 
             def measure(n, r, tried=tried, points=outline.points, pixels=pixels):
-                value = (fitting.pixel_error(r, points).max_error if pixels
-                         else float(r.max_error))
+                value = _pixel_error(r, points).max_error if pixels else float(r.max_error)
                 tried.append(f"{n}: {value:.2g}")
 
             # The search's warning says why it stopped; it is printed with the failures.
@@ -632,7 +645,7 @@ def _fit(args) -> int:
         # Contours whose sample counts share a bucket reuse the first one's program.
         _print_errors(result, size, elapsed, compiles())
         if pixels:
-            against = fitting.pixel_error(result, outline.points)
+            against = _pixel_error(result, outline.points)
             pixel_errors[i] = against.max_error
             print(f"  vs pixels  {against.max_error:.3g} px (max error against the pixels: "
                   f"pixel segments {against.max_segment_distance:.2g}, band of pixel "

@@ -166,3 +166,41 @@ def test_bad_curves_are_named(tmp_path, curve, match):
     samples = _traced(tmp_path, _square(_centres()))
     with pytest.raises(ValueError, match=match):
         fitting.pixel_error(curve, samples)
+
+
+def test_a_failed_fit_is_a_miss_of_the_pixel_search(tmp_path, monkeypatch):
+    """A fit whose curve is not finite (its status says why) is a miss of the search,
+    not an error of `pixel_error`; the others are measured against the pixels (stubbed
+    here: an error of 40/n px, so n = 40 is the smallest ladder count within 1 px)."""
+    import equinox as eqx
+    import jax.numpy as jnp
+
+    import fitting._tolerance as search
+
+    class Stub(eqx.Module):
+        control_points: np.ndarray
+        curve: np.ndarray
+        status: jnp.ndarray
+        max_error: float = 99.0
+
+        @property
+        def converged(self):
+            return self.status == 0
+
+    samples = _traced(tmp_path, _disk(_centres()))
+    calls = []
+
+    def fake_fit(target, scheme, n, **options):
+        calls.append(n)
+        curve = np.full((4, 2), np.nan if n in (16, 20) else 0.0)
+        return Stub(np.zeros((n, 2)), curve, jnp.asarray(0, jnp.int32))
+
+    def fake_pixel_error(result, points):
+        if not np.all(np.isfinite(result.curve)):  # as the real one refuses it
+            raise ValueError("the fit's curve has non-finite points")
+        return fitting.PixelError(*[40 / len(result.control_points)] * 3)
+
+    monkeypatch.setattr(search, "fit", fake_fit)
+    monkeypatch.setattr(search, "pixel_error", fake_pixel_error)
+    result = fitting.fit_tolerance(samples, js.CubicBSpline(), 1.0, error="pixel")
+    assert result.control_points.shape[0] == 40 and 16 in calls and 32 in calls
