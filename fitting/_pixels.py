@@ -5,10 +5,11 @@ between pixel centres, which sit at integer coordinates) does not say where the
 outline is, only between which pixel centres it passes: each sample lies on the unit
 segment between a pixel centre inside and one outside, and the outline crosses that
 segment *somewhere*. Where the outline turns by more than the pixel grid resolves,
-the traced polyline cuts it short: a star's tip is chamfered by 1-1.5 px, the corner
-of an axis-aligned square by 0.35 px. The two-sided error against the samples
-([`fitting.FitResult`][]'s `max_error`) then charges a curve that follows the true
-outline with that chamfer, and no count of control points meets a tolerance below it.
+the traced polyline cuts it short: a star's tips by up to 1.2-1.4 px (at 256 and 1024
+px, `benchmarks/results/pixel_tolerance.md`), the corner of an axis-aligned square by
+0.35 px. The two-sided error against the samples ([`fitting.FitResult`][]'s
+`max_error`) then charges a curve that follows the true outline with that chamfer, and
+no count of control points meets a tolerance below it.
 
 The pixel error charges only what the pixels contradict (host, NumPy):
 
@@ -24,7 +25,7 @@ where the traced contour cuts a corner short. Only a feature thinner than a pixe
 pass between pixel centres unseen: the pixels cannot show it, so a curve is charged for
 it, conservatively, whether it is a spike of the fit or the outline's own sharp tip (a
 36-degree star tip centred between two columns of pixel centres pokes 0.9-1.05 px out
-of the band; off the grid's axes, under 0.1 px).
+of the band; turned 0.3 rad off the grid's axes, 0.07 px: `tests/test_fit_pixels.py`).
 """
 
 import math
@@ -86,13 +87,13 @@ def pixel_error(
     A curve that follows the true outline scores about 0 also where the traced contour
     cuts a corner short (a star's tips by about a pixel), where its `max_error` against
     the samples does not; never more than that `max_error`, up to the resolution of
-    each (the samples lie on their pixel segments, their polyline in the band). Features thinner than a pixel are
-    charged as they poke out of the band, a spike of the fit and a sharp tip of the
-    outline alike (a 36-degree tip centred between two columns of pixel centres: 0.9-1
-    px). `jaxsubdiv fit --tolerance` measures traced PNG contours this way,
-    as does [`fitting.fit_tolerance`][] with `error="pixel"`. The module docstring of
-    `fitting._pixels` says why; `docs/fitting.md`, "Traced bitmaps: the pixel error",
-    what was measured.
+    each (the samples lie on their pixel segments, their polyline in the band).
+    Features thinner than a pixel are charged as they poke out of the band, a spike of
+    the fit and a sharp tip of the outline alike (a 36-degree tip centred between two
+    columns of pixel centres: 0.9-1.05 px). `jaxsubdiv fit --tolerance` measures
+    traced PNG contours this way, as does [`fitting.fit_tolerance`][] with
+    `error="pixel"`. The module docstring of `fitting._pixels` says why;
+    `docs/fitting.md`, "Traced bitmaps: the pixel error", what was measured.
 
     Host-side (NumPy and a k-d tree), not under `jax.jit`. Exact for the polyline
     through the curve points it evaluates, about `PIXEL_SPACING` (0.05 px) apart: each
