@@ -26,9 +26,7 @@ in `bench_potrace.py`).
 Writes `results/pixel_tolerance.json` and `.md` (`--output` sets the JSON path).
 """
 
-import json
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -39,7 +37,7 @@ import numpy as np
 
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import arguments, header, load, write_results  # noqa: E402
+from _common import arguments, child_json, header, load, write_results  # noqa: E402
 from bench_fit_corners import glyph_contours  # noqa: E402
 from bench_potrace import analytic_contours, errors, match, place, rasterise  # noqa: E402
 
@@ -106,12 +104,17 @@ def measure(family, char, size, folder, tolerances):
     return rows
 
 
+#: A child process measures one image (fresh programs: see `bench_potrace.py`).
+CHILD = """import json, sys
+sys.path.insert(0, {folder!r})
+from bench_pixel_tolerance import measure
+family, char, size, cache, tolerances = sys.argv[1:6]
+print(json.dumps(measure(family, char, int(size), cache,
+                         [float(t) for t in tolerances.split(",")])))
+"""
+
+
 def main():
-    if sys.argv[1:2] == ["--image"]:  # a child: one image, its rows as JSON
-        family, char, size, folder, tolerances = sys.argv[2:7]
-        print(json.dumps(measure(family, char, int(size), folder,
-                                 [float(t) for t in tolerances.split(",")])))
-        return
     args, output = arguments(__doc__, "pixel_tolerance")
     import jax
 
@@ -119,14 +122,11 @@ def main():
     tolerances = TOLERANCES[1:] if args.smoke else TOLERANCES
     run = header(python=sys.version.split()[0], jax=jax.__version__)
     rows, start, folder = [], time.perf_counter(), Path(tempfile.mkdtemp())
+    code = CHILD.format(folder=str(Path(__file__).parent))
     for family, char, size in images:
-        done = subprocess.run(
-            [sys.executable, __file__, "--image", family, char, str(size), str(folder),
-             ",".join(str(t) for t in tolerances)],
-            capture_output=True, text=True, timeout=3600)
-        if done.returncode != 0:
-            raise SystemExit(f"{family} {char!r} at {size} px failed:\n{done.stderr}")
-        for row in json.loads(done.stdout.strip().splitlines()[-1]):
+        for row in child_json(code, family, char, str(size), str(folder),
+                              ",".join(str(t) for t in tolerances),
+                              what=f"{family} {char!r} at {size} px", timeout=3600):
             rows.append(row)
             print(row, flush=True)
     run.update(load_end=load(), wall_seconds=round(time.perf_counter() - start, 1), rows=rows)
