@@ -23,7 +23,8 @@ its center is inside the outline (even-odd). Both tracers get that same bitmap:
   for it (contours matched by their centroid and area); a closed cubic B-spline of n
   control points is n cubic Bezier segments, creased or not. "Equal error":
   `fitting.fit_tolerance` per contour with potrace's Hausdorff distance to the truth as
-  the tolerance (which bounds our error against the pixel contour, not the truth).
+  the tolerance, bounding the error against the pixels (`error="pixel"`, since
+  2026-12-05 evening; before, against the traced samples), not against the truth.
 
 Errors in pixels against the exact outline (all its contours), both ways, each point's
 distance to the other's polylines by brute force: Hausdorff (the larger maximum) and
@@ -184,6 +185,7 @@ def match(ours, theirs):
 
 def measure(family, char, size, folder):
     """One image: potrace, then our fits (this process compiles; see `main`)."""
+    import equinox as eqx
     import jax
 
     jax.config.update("jax_enable_x64", True)
@@ -222,8 +224,11 @@ def measure(family, char, size, folder):
                 results.append(fitting.fit(points, scheme, n, corners=corners[:n],
                                            on_failure="ignore"))
             else:
-                results.append(fitting.fit_tolerance(
-                    points, scheme, p_hausdorff, corners=corners, on_failure="ignore"))
+                # Against the pixels (read_image's frame: pixel centres at integers).
+                result = fitting.fit_tolerance(
+                    points - 0.5, scheme, p_hausdorff, corners=corners, error="pixel",
+                    on_failure="ignore")
+                results.append(eqx.tree_at(lambda r: r.curve, result, result.curve + 0.5))
         return jax.block_until_ready(results)
 
     row = dict(shape=char if family == "analytic" else f"{family} '{char}'",
@@ -266,7 +271,8 @@ def main():
               else [("analytic", a) for a in ANALYTIC] + GLYPHS)
     sizes = SIZES[:1] if args.smoke else SIZES
     run = header(python=sys.version.split()[0], jax=jax.__version__, potrace=version,
-                 corners="fitting.find_corners(points, pixel=1.0)")
+                 corners="fitting.find_corners(points, pixel=1.0)",
+                 equal_error='(against the pixels: `error="pixel"`)')
     rows = []
     start = time.perf_counter()
     folder = Path(tempfile.mkdtemp())
@@ -298,7 +304,7 @@ def markdown(run) -> str:
         "against the exact outline (all contours), two-sided. Equal segments: each contour "
         "fitted with as many control points (cubic Bezier segments) as potrace used for it. "
         "Equal error: `fitting.fit_tolerance` with potrace's Hausdorff as the tolerance "
-        "(against the pixel contour). Times: potrace's process (median of 5); our warm fits "
+        + run.get("equal_error", "(against the traced samples)") + ". Times: potrace's process (median of 5); our warm fits "
         "of all contours (median of 3; the tolerance search once, warm). Our corners: "
         + run.get("corners", '`corners="auto"` (sample spacings)') + ".",
         "",
