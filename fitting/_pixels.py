@@ -9,7 +9,7 @@ the traced polyline cuts it short: a star's tips by up to 1.2-1.4 px (at 256 and
 px, `benchmarks/results/pixel_tolerance.md`), the corner of an axis-aligned square by
 0.35 px. The two-sided error against the samples ([`fitting.FitResult`][]'s
 `max_error`) then charges a curve that follows the true outline with that chamfer, and
-no count of control points meets a tolerance below it.
+a tolerance below it is met only by curves that cut the corners as the samples do.
 
 The pixel error charges only what the pixels contradict (host, NumPy):
 
@@ -24,8 +24,9 @@ A curve that crosses every pixel segment and stays in the band has pixel error 0
 where the traced contour cuts a corner short. Only a feature thinner than a pixel can
 pass between pixel centres unseen: the pixels cannot show it, so a curve is charged for
 it, conservatively, whether it is a spike of the fit or the outline's own sharp tip (a
-36-degree star tip centred between two columns of pixel centres pokes 0.9-1.05 px out
-of the band; turned 0.3 rad off the grid's axes, 0.07 px: `tests/test_fit_pixels.py`).
+45-degree star tip centred between two columns of pixel centres pokes 0.9-1.05 px out
+of the band, `benchmarks/results/pixel_tolerance.md`; the star of
+`tests/test_fit_pixels.py`, turned 0.3 rad off the grid's axes, scores 0.07 px).
 """
 
 import math
@@ -40,15 +41,16 @@ from jaxsubdiv.validation import is_traced
 from ._result import FitResult
 
 
-#: The curve is evaluated (limit points, then chords) at about this spacing, in pixels:
-#: each half of the error is measured to within half of it.
+#: The curve is evaluated (limit points, then chords) at about this spacing, in pixels,
+#: and the pixel segments probed at it (`pixel_error`'s resolution).
 PIXEL_SPACING = 0.05
 #: A coordinate within this of an integer (in pixels) is on a row or column of pixel
 #: centres (float32 rounding of coordinates up to a few thousand pixels).
 _ON_GRID = 1e-3
-#: The most curve points evaluated (memory: a 2 x 8 MB array at the default spacing is
-#: 20,000 px of outline).
-_MOST_POINTS = 2**20
+#: The most limit points evaluated (a stencil table of `width` weights each): beyond,
+#: the rest of the spacing comes from chords between them, whose sagitta is then
+#: counted too (4M limit points about 0.2 px apart: some 800,000 px of outline).
+_MOST_POINTS = 2**22
 #: Pixel cells searched per curve point for the nearest one (`_points_to_band`).
 _CELLS_SEARCHED = 16
 
@@ -89,15 +91,19 @@ def pixel_error(
     the samples does not; never more than that `max_error`, up to the resolution of
     each (the samples lie on their pixel segments, their polyline in the band).
     Features thinner than a pixel are charged as they poke out of the band, a spike of
-    the fit and a sharp tip of the outline alike (a 36-degree tip centred between two
+    the fit and a sharp tip of the outline alike (a 45-degree tip centred between two
     columns of pixel centres: 0.9-1.05 px). `jaxsubdiv fit --tolerance` measures
     traced PNG contours this way, as does [`fitting.fit_tolerance`][] with
     `error="pixel"`. The module docstring of `fitting._pixels` says why;
     `docs/fitting.md`, "Traced bitmaps: the pixel error", what was measured.
 
-    Host-side (NumPy and a k-d tree), not under `jax.jit`. Exact for the polyline
-    through the curve points it evaluates, about `PIXEL_SPACING` (0.05 px) apart: each
-    half to within half that spacing.
+    Host-side, not under `jax.jit`: a `FitResult`'s limit points come from a compiled
+    curve stencil (one program per count and levels, about a second to compile), the
+    rest is NumPy and a k-d tree. Resolution: limit points about 0.2 px apart, points
+    every `PIXEL_SPACING` (0.05 px) along their chords, each pixel segment probed at
+    its sample and every 0.05 px; the segments' half is over by at most 0.05 px, the
+    band's under by at most 0.025 px (plus the chords' sagitta, 0.005 px on a bend of
+    radius 1 px).
 
     **Arguments:**
 
@@ -128,17 +134,33 @@ def pixel_error(
     return PixelError(max(segments, band), segments, band)
 
 
-def on_pixel_grid(samples: Float[ArrayLike, "m 2"]) -> bool:
-    """Whether every sample has an integer coordinate (to `_ON_GRID`), as a contour
-    traced from a bitmap and not resampled does: what [`fitting.pixel_error`][] needs."""
+def traced_problem(samples: Float[ArrayLike, "m 2"]) -> str | None:
+    """Why `samples` (finite, `(m, 2)`, m >= 3) are not a closed contour as
+    `jaxsubdiv.io.read_image` traces it, or None: each sample needs an integer
+    coordinate (it lies between two pixel centres of a row or column), and each chord
+    between consecutive samples must lie in one pixel cell (a contour subsampled or
+    resampled does not)."""
     samples = np.asarray(samples, dtype=np.float64)
-    return bool(samples.ndim == 2 and samples.shape[1] == 2 and len(samples) >= 3
-                and np.all(np.abs(samples - np.round(samples)).min(axis=1) <= _ON_GRID))
+    off_grid = np.abs(samples - np.round(samples)).min(axis=1) > _ON_GRID
+    if off_grid.any():
+        k = int(np.argmax(off_grid))
+        return (f"{int(off_grid.sum())} of {len(samples)} samples (the first: #{k}, "
+                f"{samples[k].tolist()}) lie between no two pixel centres (neither "
+                "coordinate is an integer)")
+    after = np.roll(samples, -1, axis=0)
+    cell = np.floor(0.5 * (samples + after))
+    outside = np.any((np.minimum(samples, after) < cell - _ON_GRID)
+                     | (np.maximum(samples, after) > cell + 1 + _ON_GRID), axis=1)
+    if outside.any():
+        k = int(np.argmax(outside))
+        return (f"{int(outside.sum())} chords between consecutive samples cross more than "
+                f"one pixel cell (the first: samples #{k} and #{(k + 1) % len(samples)}, "
+                f"{samples[k].tolist()} and {after[k].tolist()})")
+    return None
 
 
 def _traced_samples(samples, caller: str = "pixel_error(samples=...)") -> np.ndarray:
-    """`samples` as float64, checked to be a traced contour: each on a row or column of
-    pixel centres."""
+    """`samples` as float64, checked to be a closed contour as traced (`traced_problem`)."""
     if is_traced(samples):
         raise TypeError(f"`{caller}` runs on the host: not under `jax.jit`.")
     samples = np.asarray(samples, dtype=np.float64)
@@ -148,14 +170,11 @@ def _traced_samples(samples, caller: str = "pixel_error(samples=...)") -> np.nda
             f"got shape {samples.shape}.")
     if not np.all(np.isfinite(samples)):
         raise ValueError(f"`{caller}` has non-finite points.")
-    off_grid = np.abs(samples - np.round(samples)).min(axis=1) > _ON_GRID
-    if off_grid.any():
-        k = int(np.argmax(off_grid))
+    problem = traced_problem(samples)
+    if problem is not None:
         raise ValueError(
-            f"`{caller}`: {int(off_grid.sum())} of {len(samples)} samples "
-            f"(the first: #{k}, {samples[k].tolist()}) lie between no two pixel centres "
-            "(neither coordinate is an integer): give the contour as "
-            "`jaxsubdiv.io.read_image` traced it, in pixels and not resampled.")
+            f"`{caller}`: {problem}: give the contour as `jaxsubdiv.io.read_image` traced "
+            "it, in pixels, not resampled or subsampled.")
     return samples
 
 
@@ -177,8 +196,8 @@ def _dense_limit_curve(result: FitResult) -> np.ndarray:
     n = result.control_points.shape[0]
     extra = max(0, math.ceil(math.log2(max(chord, 1e-300) / (4 * PIXEL_SPACING))))
     levels = result.levels + extra
-    while levels > 1 and n * 2**levels > _MOST_POINTS:
-        levels -= 1
+    while levels > result.levels and n * 2**levels > _MOST_POINTS:
+        levels -= 1  # (then more of the spacing comes from chords: see _MOST_POINTS)
     creases = None if result.creases is None else np.asarray(result.creases, dtype=bool)
     if creases is not None and not creases.any():
         creases = None
@@ -188,14 +207,15 @@ def _dense_limit_curve(result: FitResult) -> np.ndarray:
 
 
 def _densified(points: np.ndarray, spacing: float) -> np.ndarray:
-    """The closed polyline through `points` with points added on each chord, at most
-    `spacing` apart (at most `_MOST_POINTS` in all)."""
+    """The closed polyline through `points` (repeated points dropped) with points added
+    on each chord, at most `spacing` apart."""
     ends = np.vstack([points, points[:1]])
     chords = np.diff(ends, axis=0)
     length = np.linalg.norm(chords, axis=1)
-    total = float(length.sum())
-    spacing = max(spacing, total / _MOST_POINTS)
-    pieces = np.maximum(1, np.ceil(length / spacing)).astype(np.int64)
+    ends, chords, length = ends[:-1][length > 0], chords[length > 0], length[length > 0]
+    if not len(chords):  # a curve collapsed to a point
+        return points[:1]
+    pieces = np.ceil(length / spacing).astype(np.int64)
     start = np.repeat(np.arange(len(chords)), pieces)
     fraction = (np.arange(pieces.sum()) - np.repeat(np.cumsum(pieces) - pieces, pieces)) / \
         np.repeat(pieces, pieces)
@@ -204,43 +224,46 @@ def _densified(points: np.ndarray, spacing: float) -> np.ndarray:
 
 def _segments_to_curve(samples: np.ndarray, points: np.ndarray) -> float:
     """The largest distance from a sample's pixel segment to the polyline `points`
-    (chords of at most `PIXEL_SPACING`), each segment probed every `PIXEL_SPACING`: to
-    within half of it (a crossing is at most that far from a probe)."""
-    integral = np.abs(samples - np.round(samples)) <= _ON_GRID
-    # The segment runs along the axis whose coordinate is not an integer (a sample at
-    # a pixel centre, both integers, is its own segment).
-    along = np.where(integral[:, 0], 1, 0)
-    fixed = ~integral[np.arange(len(samples)), along]
+    (chords of at most `PIXEL_SPACING`), each segment probed at the sample and every
+    `PIXEL_SPACING`: over by at most `PIXEL_SPACING` (half of it from the probes, half
+    from the nearest vertex's chords)."""
+    from scipy.spatial import cKDTree
+
+    # The segment runs along the axis whose coordinate is farther from an integer (the
+    # other one is an integer, to rounding); a sample exactly at a pixel centre is its
+    # own segment.
+    fraction = np.abs(samples - np.round(samples))
+    along = np.argmax(fraction, axis=1)
+    rows = np.flatnonzero(fraction.max(axis=1) > 0)
     low, high = samples.copy(), samples.copy()
-    rows = np.flatnonzero(fixed)
     low[rows, along[rows]] = np.floor(samples[rows, along[rows]])
     high[rows, along[rows]] = np.ceil(samples[rows, along[rows]])
     t = np.linspace(0.0, 1.0, int(round(1 / PIXEL_SPACING)) + 1)
+    tree = cKDTree(points)
     largest = 0.0
     for block in range(0, len(samples), 8192):  # bounded memory
         a, b = low[block:block + 8192], high[block:block + 8192]
-        probes = a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]
-        distance = _points_to_curve(probes.reshape(-1, 2), points, reduce=False)
+        probes = np.concatenate([samples[block:block + 8192, None, :],
+                                 a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]],
+                                axis=1)
+        distance = _points_to_curve(probes.reshape(-1, 2), points, tree)
         largest = max(largest, float(distance.reshape(len(a), -1).min(axis=1).max()))
     return largest
 
 
-def _points_to_curve(probes: np.ndarray, points: np.ndarray, reduce: bool = True):
-    """Each probe's distance to the closed polyline `points` (chords of at most
-    `PIXEL_SPACING`), or the largest with `reduce`."""
-    from scipy.spatial import cKDTree
-
-    tree, count = cKDTree(points), len(points)
+def _points_to_curve(probes: np.ndarray, points: np.ndarray, tree) -> np.ndarray:
+    """Each probe's distance to the closed polyline `points` (the k-d `tree` of its
+    vertices; chords of at most `PIXEL_SPACING`): to its nearest vertex's two chords,
+    over by at most half a chord."""
+    count = len(points)
     out = np.empty(len(probes))
     for block in range(0, len(probes), 65536):  # bounded memory
         p = probes[block:block + 65536]
         _, nearest = tree.query(p)
-        # The polyline's nearest point is on a chord next to its nearest vertex (its
-        # chords are short): measured exactly on those two.
         out[block:block + 65536] = np.minimum(
             _to_chords(p, points[nearest], points[(nearest - 1) % count]),
             _to_chords(p, points[nearest], points[(nearest + 1) % count]))
-    return float(out.max(initial=0.0)) if reduce else out
+    return out
 
 
 def _to_chords(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -255,25 +278,37 @@ def _to_chords(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _band_cells(samples: np.ndarray) -> np.ndarray:
     """The lower-left pixel centres of the cells the traced (closed) polyline runs
     through, unique: each chord between consecutive samples lies in one cell, the one
-    of its middle."""
-    middles = 0.5 * (samples + np.roll(samples, -1, axis=0))
+    of its middle (chords of length 0, where a pixel is exactly at the threshold, in
+    none)."""
+    after = np.roll(samples, -1, axis=0)
+    moving = np.any(after != samples, axis=1)
+    middles = 0.5 * (samples + after)[moving]
     return np.unique(np.floor(middles), axis=0)
 
 
 def _points_to_band(points: np.ndarray, cells: np.ndarray) -> float:
     """The largest distance from a point to the union of the unit squares `cells`.
-    The nearest square is among the nearest `_CELLS_SEARCHED` centres: its centre is at
-    most sqrt(2)/2 - 1/2 farther than the nearest centre, and the band is a chain of
-    cells, of which few lie in such a thin annulus."""
+    A square is at least its centre's distance less sqrt(2)/2 away: the squares among
+    the `_CELLS_SEARCHED` nearest centres settle a point unless a centre beyond them
+    could be nearer, and such points are settled from all centres within reach."""
     from scipy.spatial import cKDTree
 
-    k = min(_CELLS_SEARCHED, len(cells))
-    tree, centres = cKDTree(cells + 0.5), cells + 0.5
+    centres = cells + 0.5
+    tree, k = cKDTree(centres), min(_CELLS_SEARCHED, len(cells))
+    reach = math.sqrt(2) / 2
+
+    def box(p, c):  # distance from points p to the squares of centres c
+        return np.linalg.norm(np.maximum(0.0, np.abs(p - c) - 0.5), axis=-1)
+
     largest = 0.0
     for block in range(0, len(points), 65536):  # bounded memory
         p = points[block:block + 65536]
-        _, nearest = tree.query(p, k=k)
-        nearest = nearest.reshape(len(p), k)
-        outside = np.maximum(0.0, np.abs(p[:, None, :] - centres[nearest]) - 0.5)
-        largest = max(largest, float(np.linalg.norm(outside, axis=-1).min(axis=1).max()))
+        far, nearest = tree.query(p, k=k)
+        far, nearest = far.reshape(len(p), k), nearest.reshape(len(p), k)
+        best = box(p[:, None, :], centres[nearest]).min(axis=1)
+        if k < len(cells):
+            for i in np.flatnonzero(best > far[:, -1] - reach):
+                near = tree.query_ball_point(p[i], best[i] + reach)
+                best[i] = min(best[i], float(box(p[i], centres[near]).min(initial=np.inf)))
+        largest = max(largest, float(best.max()))
     return largest

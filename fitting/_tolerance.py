@@ -171,7 +171,8 @@ def fit_tolerance(
         traced = _traced_samples(target, "fit_tolerance(target=...)` with `error='pixel'")
         if options.get("boundary", "closed") != "closed":
             raise ValueError("`fit_tolerance(error='pixel')` measures closed traced contours; "
-                             f"got boundary={options.get('boundary')!r}.")
+                             f"got boundary={options.get('boundary')!r}: leave the boundary "
+                             "closed, or use error='max_error'.")
     smallest = max(4, min_points(scheme, check_boundary(options.get("boundary", "closed"),
                                                         scheme)))
     corners = options.get("corners")
@@ -305,9 +306,11 @@ def fit_tolerance(
                                   key=lambda k: (errors[k], counts[k]))
     result = tried[best]
     if not met:
+        label = "pixel error" if error == "pixel" else error
         text = (
-            f"fit_tolerance: {stopped}; none fitted within the tolerance {tolerance:.3g} ({error}); the "
-            f"smallest {error} was {errors[best]:.3g}, at n = {counts[best]} (tried "
+            f"fit_tolerance: {stopped}; none fitted within the tolerance {tolerance:.3g} "
+            f"({label}); the smallest {label} was {errors[best]:.3g}, at n = {counts[best]} "
+            "(tried "
             + ", ".join(f"{counts[k]}: {errors[k]:.2g}" for k in sorted(tried))
             + "); that fit is returned with the status tolerance_not_reached."
         )

@@ -564,7 +564,7 @@ def _fit(args) -> int:
         f"fitting {_scheme_text(args.scheme, scheme)} curves with "
         + (f"{args.n} control points" if args.tolerance is None else
            f"the fewest control points within {args.tolerance:g} (max error"
-           + (" against the pixels)" if traced_image else ")"))
+           + ("; a PNG's traced contours against its pixels)" if traced_image else ")"))
         + f" to {_source(args)}: {count} contour{'s' if count > 1 else ''}"
         + (" (scheme parameters fitted too)" if args.fit_params else "")
     )
@@ -615,14 +615,18 @@ def _fit(args) -> int:
         # charge the curve for the corners the contour cuts short; --tolerance then
         # bounds that one (fitting.pixel_error).
         pixels = (traced_image and boundary == "closed"
-                  and fitting._pixels.on_pixel_grid(outline.points))
+                  and fitting._pixels.traced_problem(outline.points) is None)
+        measured = {}  # count -> its fit's pixel error
         if args.tolerance is None:
             result = fitting.fit(outline.points, scheme, counts[i], on_failure="ignore", **options)
         else:
             tried = []
 
-            def measure(n, r, tried=tried, points=outline.points, pixels=pixels):
-                value = _pixel_error(r, points).max_error if pixels else float(r.max_error)
+            def measure(n, r, tried=tried, points=outline.points, pixels=pixels,
+                        measured=measured):
+                if pixels:
+                    measured[n] = _pixel_error(r, points)
+                value = measured[n].max_error if pixels else float(r.max_error)
                 tried.append(f"{n}: {value:.2g}")
 
             # The search's warning says why it stopped; it is printed with the failures.
@@ -645,7 +649,8 @@ def _fit(args) -> int:
         # Contours whose sample counts share a bucket reuse the first one's program.
         _print_errors(result, size, elapsed, compiles())
         if pixels:
-            against = _pixel_error(result, outline.points)
+            against = (measured.get(result.control_points.shape[0])
+                       or _pixel_error(result, outline.points))
             pixel_errors[i] = against.max_error
             print(f"  vs pixels  {against.max_error:.3g} px (max error against the pixels: "
                   f"pixel segments {against.max_segment_distance:.2g}, band of pixel "
@@ -667,7 +672,8 @@ def _fit(args) -> int:
                 "pin_ends": pinned[i],
             }
             if i in pixel_errors:  # a traced PNG contour: fitting.pixel_error, in pixels
-                info["pixel_error"] = pixel_errors[i]
+                value = pixel_errors[i]  # (JSON has no inf: a failed fit's is null)
+                info["pixel_error"] = value if math.isfinite(value) else None
             js.io.write_result_json(path, result, info=info)
             print(f"wrote {path}")
     elif args.output and not args.output.lower().endswith(".svg"):

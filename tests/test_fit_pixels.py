@@ -74,7 +74,7 @@ def _star(points):
 # two-sided error against the traced samples is the chamfers' (the square's corner is
 # cut by sqrt(2)/4 = 0.354 px).
 TRUE_OUTLINES = [
-    ("disk", _disk, _disk_outline(), 0.2),
+    ("disk", _disk, _disk_outline(), 0.45),
     ("square", _square, _square_outline(), math.sqrt(2) / 4 - 1e-3),
 ]
 
@@ -109,17 +109,38 @@ def test_an_offset_square_has_the_closed_form_pixel_error(tmp_path, offset, segm
 
 
 def test_a_fits_pixel_error_is_that_of_its_curve_evaluated_by_scipy(tmp_path):
-    """A FitResult is measured on its limit curve: the same figure as scipy's closed
-    cubic B-spline of its control points, densely sampled; and no more than its error
-    against the samples (which lie on their pixel segments, in the band)."""
+    """A FitResult is measured on its limit curve, evaluated more densely than its own
+    `curve` (levels=2 here: 4 points per span): the same figure as scipy's closed cubic
+    B-spline of its control points, densely sampled; and no more than its error against
+    the samples (which lie on their pixel segments, in the band)."""
     samples = _traced(tmp_path, _disk(_centres()))
-    result = fitting.fit(samples, js.CubicBSpline(), 12, on_failure="ignore")
+    result = fitting.fit(samples, js.CubicBSpline(), 12, levels=2, on_failure="ignore")
     curve = periodic_bspline(np.asarray(result.control_points, dtype=float), 3)
     dense = curve(np.linspace(0, 12, 12 * 400, endpoint=False))
     ours, theirs = fitting.pixel_error(result, samples), fitting.pixel_error(dense, samples)
     assert ours.max_error == pytest.approx(theirs.max_error, abs=0.03)
     assert ours.max_band_distance == pytest.approx(theirs.max_band_distance, abs=0.03)
     assert ours.max_error <= float(result.max_error) + 0.03
+    assert fitting.pixel_error(result.curve, samples).max_error != pytest.approx(
+        ours.max_error, abs=0.03)  # its own 48 points would not do
+
+
+def test_a_creased_fits_pixel_error_is_that_of_its_refined_polygon(tmp_path):
+    """With creases (the square's four corners), the limit curve measured is the creased
+    one: as the control polygon refined 8 times with `jaxsubdiv.refine` (its pieces
+    between creases, within 1e-3 px of their limit)."""
+    samples = _traced(tmp_path, _square(_centres()))
+    corners = fitting.find_corners(samples, pixel=1.0)
+    result = fitting.fit(samples, js.CubicBSpline(), 8, levels=2, corners=corners,
+                         on_failure="ignore")
+    creases = np.flatnonzero(np.asarray(result.creases))
+    assert len(creases) == 4
+    refined = js.refine(np.asarray(result.control_points, dtype=float), js.CubicBSpline(), 8,
+                        creases=creases.tolist())
+    ours = fitting.pixel_error(result, samples)
+    theirs = fitting.pixel_error(np.asarray(refined), samples)
+    assert ours.max_error == pytest.approx(theirs.max_error, abs=0.03)
+    assert ours.max_band_distance == pytest.approx(theirs.max_band_distance, abs=0.03)
 
 
 def test_a_star_fitted_to_a_pixel_tolerance_its_samples_cannot_give(tmp_path, capsys):
@@ -134,7 +155,7 @@ def test_a_star_fitted_to_a_pixel_tolerance_its_samples_cannot_give(tmp_path, ca
     status, out, err = cli(capsys, "fit", tmp_path / "shape.png", "--tolerance", 0.3, "-q",
                            "-o", tmp_path / "star.json")
     assert status == 0, err
-    assert "within 0.3 (max error against the pixels)" in out
+    assert "within 0.3 (max error; a PNG's traced contours against its pixels)" in out
     assert "control    10 points (pixel error by count tried:" in out
     saved = js.io.read_result_json(tmp_path / "star.json")
     pixel = float(out.split("  vs pixels  ")[1].split()[0])
@@ -146,16 +167,44 @@ def test_a_star_fitted_to_a_pixel_tolerance_its_samples_cannot_give(tmp_path, ca
     assert maximum > 0.6  # its error against the samples: the tolerance could not be met
 
 
-def test_samples_off_the_pixel_grid_are_refused_before_any_fit(tmp_path, monkeypatch):
+def test_samples_not_as_traced_are_refused_before_any_fit(tmp_path, monkeypatch):
     samples = _traced(tmp_path, _disk(_centres()))
     resampled = js.io.resample_polyline(samples, 300, True)
     with pytest.raises(ValueError, match=r"lie between no two pixel centres.*read_image"):
         fitting.pixel_error(_disk_outline(), resampled)
+    # Every third sample: still on rows and columns of pixel centres, but each chord
+    # crosses cells, and the samples' own polyline would leave the band.
+    with pytest.raises(ValueError, match=r"cross more than one pixel cell.*subsampled"):
+        fitting.pixel_error(_disk_outline(), samples[::3])
     monkeypatch.setattr(fitting._tolerance, "fit", lambda *a, **k: pytest.fail("fitted"))
     with pytest.raises(ValueError, match=r"fit_tolerance\(target=...\)` with `error='pixel'"):
         fitting.fit_tolerance(resampled, js.CubicBSpline(), 0.5, error="pixel")
+    with pytest.raises(ValueError, match=r"closed traced contours.*error='max_error'"):
+        fitting.fit_tolerance(samples, js.CubicBSpline(), 0.5, error="pixel", boundary="open")
     with pytest.raises(ValueError, match=r"must be 'max_error', 'rms' or 'pixel'"):
         fitting.fit_tolerance(samples, js.CubicBSpline(), 0.5, error="hausdorff")
+
+
+def test_samples_near_a_pixel_centre_keep_their_pixel_segment(tmp_path):
+    """An antialiased ring of grey 128/255 around the square, thresholded at 0.50156:
+    the contour passes 8e-4 px from the grey pixels' centres, still between them and
+    the background's. The square through the middle of those pixel segments (its sides
+    1.5 px out) crosses every one of them: pixel error 0, not half a pixel."""
+    from PIL import Image
+
+    image = np.zeros((SIZE, SIZE), np.uint8)
+    image[19:81, 19:81] = 128
+    image[20:80, 20:80] = 255  # pixels 20..79 of the square, rows and columns alike
+    path = tmp_path / "ring.png"
+    Image.fromarray(image, "L").save(path)
+    (outline,) = js.io.read_image(path, threshold=0.50156)
+    samples = outline.points
+    fraction = np.abs(samples - np.round(samples))
+    assert 5e-4 < fraction.max(axis=1).min() < 1e-3  # the premise: near, not at, centres
+    # Columns 19..80 are x = 19..80; rows 19..80 are y = SIZE - 1 - row = 39..100. The
+    # pixel segments run from the grey centres one pixel out: their middles are 0.5 out.
+    square = np.array([[18.5, 38.5], [80.5, 38.5], [80.5, 100.5], [18.5, 100.5]])
+    assert fitting.pixel_error(square, samples).max_error < 0.03
 
 
 @pytest.mark.parametrize("curve,match", [
