@@ -13,7 +13,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float, Int
+from jaxtyping import Array, Bool, Float, Int
 
 import jaxsubdiv as js
 
@@ -179,6 +179,11 @@ def _lost(points, anchors, found2):
     return nearest2 + 1e3 * jnp.finfo(points.dtype).eps * scale < found2
 
 
+def _unless(skip, found2):
+    """Squared foot distances with those of the `skip`ped points zero (never lost)."""
+    return found2 if skip is None else jnp.where(skip, 0.0, found2)
+
+
 def _redo(flags, values, search, points):
     """`values` (arrays over the points) with those of the flagged points replaced by
     `search(their points)`, a pointwise search, `RECHECK` at a time (`lax.while_loop`),
@@ -246,6 +251,7 @@ def track(
     segment: Int[Array, " m"],
     radius: int = 2,
     count: Int[Array, ""] | None = None,
+    skip: Bool[Array, " m"] | None = None,
 ) -> tuple[Int[Array, " m"], Float[Array, " m"]]:
     """`project`, starting from each point's previous foot segment `segment`.
 
@@ -254,7 +260,8 @@ def track(
     and the global search runs instead for all points (`lax.cond`: only then is its cost
     paid). Between consecutive solver steps feet move little: the fit's foot points (400
     samples on 1024 curve samples, and the held curve points on the samples) took 0.24 ms
-    this way against 0.48 ms by the global search (measured).
+    this way against 0.48 ms by the global search (measured). Points flagged in `skip`
+    (whose feet the caller replaces) never call for the global search.
     """
     points, curve = jax.lax.stop_gradient((points, curve))
     offsets = jnp.arange(-radius, radius + 1)
@@ -267,7 +274,7 @@ def track(
     # Every foot searched again when one is lost (not only the lost ones, `_redo`): on
     # corner-heavy outlines that led fits to poorer minima and to crawl (measured on
     # matplotlib's home icon: 500 steps unconverged, RMS 1.3x, instead of 167 steps).
-    lost = _lost(points, anchors, jnp.sum((points - foot) ** 2, -1))
+    lost = _lost(points, anchors, _unless(skip, jnp.sum((points - foot) ** 2, -1)))
     return jax.lax.cond(jnp.any(lost), lambda: project(points, curve, closed, coarse, count),
                         lambda: (near, fraction))
 
@@ -681,6 +688,7 @@ def locate(
     coarse: int,
     newton: int = 4,
     previous: Float[Array, " m"] | None = None,
+    skip: Bool[Array, " m"] | None = None,
 ) -> Float[Array, " m"]:
     r"""Foot-point positions (in units of curve samples) of `points` on the curve.
 
@@ -694,12 +702,13 @@ def locate(
     and may each move up to `coarse` samples (the Gauss-Newton step is exact for a foot
     sliding along a straight piece), and the global search runs instead (`lax.cond`) if
     any of every `coarse`-th curve sample is nearer to its point than the foot found.
-    Measured on glyph fits, this keeps the global search to a few steps per fit.
+    Measured on glyph fits, this keeps the global search to a few steps per fit. Points
+    flagged in `skip` (whose feet the caller replaces) never call for it.
     """
     points, X = jax.lax.stop_gradient((points, X))
     if previous is not None and V is None:
         start = jnp.floor(jax.lax.stop_gradient(previous)).astype(jnp.int32)
-        segment, fraction = track(points, X, closed, coarse, start)
+        segment, fraction = track(points, X, closed, coarse, start, skip=skip)
         return segment + fraction
     if previous is None:
         segment, fraction = project(points, X, closed, coarse)
@@ -711,7 +720,7 @@ def locate(
     tau = _newton(points, X, V, jax.lax.stop_gradient(previous), closed, newton, float(coarse))
     (C,) = evaluate(X, V, tau, closed, order=0)
     _, anchors = _anchors(X, closed, coarse)
-    lost = _lost(points, anchors, jnp.sum((C - points) ** 2, -1))
+    lost = _lost(points, anchors, _unless(skip, jnp.sum((C - points) ** 2, -1)))
     return jax.lax.cond(jnp.any(lost), lambda: locate(points, X, V, closed, coarse, newton),
                         lambda: tau)  # all searched again, as in `track`
 

@@ -320,9 +320,12 @@ class Objective(eqx.Module):
         _, A, V, _ = self.basis(y, args)
         P = self.control(y, args, A)
         X = A @ P
+        # The corner samples' feet are replaced below: where the tracked search finds
+        # them is no reason for a global search (they were, at every step, before).
         tau = locate(target, X, None if V is None else V @ P, self.closed,
                      coarse=max(1, min(8, self.num_curve // 64)),
-                     previous=None if previous is None else previous[0])
+                     previous=None if previous is None else previous[0],
+                     skip=(args.corners & (weights > 0)) if self.corners else None)
         held = X[self.held]
         coarse = max(1, min(8, self.num_target // 64))
         if previous is None:

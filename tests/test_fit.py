@@ -754,6 +754,45 @@ def test_feet_tracked_from_the_last_step_are_the_nearest_points(monkeypatch, ang
     np.testing.assert_allclose(found, polyline_distances(samples, dense), rtol=0, atol=1e-8)
 
 
+@pytest.mark.parametrize("hermite", [True, False])
+@pytest.mark.parametrize("skipped", [False, True])
+def test_skipped_feet_call_for_no_global_search(monkeypatch, hermite, skipped):
+    """Points flagged in `skip` (the corner samples, whose feet the fit replaces) never
+    call for the global search: three feet put on the far side of the curve make it run
+    once, unless those three are skipped, and either way every other foot is the nearest
+    point of the new curve (brute force on a 64x finer polyline of it)."""
+    samples = jnp.asarray(blob(300, seed=4))
+    n, levels, scheme = 12, 6, js.CubicBSpline()
+    A, V = (t.dense() for t in _curve.curve_tables(scheme, n, levels, "closed", samples.dtype,
+                                                     True))
+    V = V if hermite else None
+    theta = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    P = np.stack([1.1 * np.cos(theta), np.sin(theta)], -1)
+    tangents = lambda P: None if V is None else V @ P
+    previous = _curve.locate(samples, A @ P, tangents(P), True, coarse=8)
+    far = np.array([5, 100, 200])
+    previous = previous.at[far].set((previous[far] + A.shape[0] / 2) % A.shape[0])
+    skip = np.isin(np.arange(samples.shape[0]), far) if skipped else None
+    angle = 0.002
+    moved = P @ np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]]).T
+    calls = _executions(monkeypatch, _curve, "project")
+    tau = _curve.locate(samples, A @ moved, tangents(moved), True, coarse=8,
+                        previous=previous, skip=skip)
+    jax.block_until_ready(tau)
+    assert len(calls) == (0 if skipped else 1)
+    (feet,) = _curve.evaluate(A @ moved, tangents(moved), tau, True, order=0)
+    found = np.linalg.norm(np.asarray(feet) - np.asarray(samples), axis=1)
+    dense = np.asarray(js.limit_points(js.refine(moved, scheme, levels + 6), scheme))
+    nearest = polyline_distances(samples, dense)
+    kept = ~np.isin(np.arange(samples.shape[0]), far)
+    # Chords lie within h^2 kappa / 8 of the curve (about 1e-5 here); Hermite segments
+    # far closer.
+    np.testing.assert_allclose(found[kept], nearest[kept], rtol=0,
+                               atol=1e-8 if hermite else 1e-4)
+    if skipped:  # those three stayed on the far side
+        assert np.all(found[far] > nearest[far] + 0.5)
+
+
 # --------------------------------------------------------------------------------------
 # Gradients through the fit (implicit differentiation) against finite differences
 
