@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 import pytest
+import scipy.interpolate
 from helpers import (
     CompileCounter,
     glyph_outline,
@@ -625,6 +626,46 @@ def test_distances_to_a_padded_polyline_are_certified_without_fallback(monkeypat
     jax.block_until_ready(ours)
     assert not calls
     np.testing.assert_allclose(ours, polyline_distances(points, polyline, closed), rtol=1e-12,
+                               atol=1e-15)
+
+
+@pytest.mark.parametrize("closed", [True, False])
+def test_distances_of_a_dense_curve_are_certified_by_clusters(monkeypatch, closed,
+                                                              search_levels):
+    """A curve's samples against a sparser outline (as the fit measures its curve to
+    the samples): with two levels, consecutive points go in clusters
+    (`_curve._clustered`), each certified as a whole, so that few points (of 2,400) are
+    searched on their own; the distances equal brute force on the unpadded outline, near a closed
+    outline's seam and an open one's ends too (the outline padded as the fit pads)."""
+    outline = glyph_outline("S", 400) if closed else glyph_outline("S", 400)[:250]
+    count = len(outline)
+    padded = np.concatenate([outline, np.repeat(outline[-1:], 48, axis=0)])
+    # A smooth curve near the outline: its periodic cubic spline, sampled 6 times as
+    # densely, moved off it by a slow wave of 0.3% of the size.
+    size = np.linalg.norm(np.ptp(outline, axis=0))
+    t = np.linspace(0, 1, 6 * count, endpoint=not closed)
+    # (A copy: splprep with per=True writes the first point over the last.)
+    tck, _ = scipy.interpolate.splprep(outline.T.copy(), s=0, per=closed)
+    curve = np.stack(scipy.interpolate.splev(t, tck), -1)
+    curve = curve + 0.003 * size * np.sin(40 * np.pi * t)[:, None] * np.array([0.6, 0.8])
+    searched = []  # points searched on their own, per execution
+    original = _curve._pointwise
+
+    def spy(points, *args):
+        jax.debug.callback(lambda: searched.append(points.shape[0]))
+        return original(points, *args)
+
+    monkeypatch.setattr(_curve, "_pointwise", spy)
+    # One program, traced here (a new function: no trace of another test's is reused).
+    distances = jax.jit(lambda p, c, closed, count: _curve.distances(p, c, closed, count=count),
+                        static_argnames="closed")
+    ours = distances(jnp.asarray(curve), jnp.asarray(padded), closed, count=jnp.int32(count))
+    jax.block_until_ready(ours)
+    if search_levels == "two levels":  # a few unsure clusters, `RECHECK` points at a time
+        assert sum(searched) <= 4 * _curve.RECHECK, searched
+    else:
+        assert searched == [len(curve)], searched
+    np.testing.assert_allclose(ours, polyline_distances(curve, outline, closed), rtol=1e-12,
                                atol=1e-15)
 
 
