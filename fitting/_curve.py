@@ -123,8 +123,9 @@ def _nearest_anchor(points, anchors):
     an `argmin` over the points x anchors array is a variadic reduction that XLA does
     not fuse with the matrix product as it does a `min`: with it, and with the
     certificate's mask (`_smallest_outside`), fits of 5,000-7,000 samples (1024-px
-    glyphs) took 1.3-2.6x and of 16,000 samples 3.2x the time they take now, with the
-    same steps and errors (`benchmarks/results/fit_samples.md`, jax 0.10.2, 2 cores)."""
+    glyphs) took 1.3-2.6x and of 16,000 samples 3.2x the time they took with two levels,
+    with the same steps and errors (`benchmarks/results/fit_samples_91eb5fa.md`, jax
+    0.10.2, 2 cores)."""
     k, d = anchors.shape
     if k < TWO_LEVELS_FROM:
         def one_pass(p):
