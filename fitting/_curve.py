@@ -486,10 +486,11 @@ def _clustered(points, curve, closed, coarse, chunk, count):
     (`_unsure`), the groups searched around $c$'s nearest coarse vertex hold every
     point's nearest, and each point is projected onto that window alone. Clusters the
     certificate leaves unsure (points far apart, or far from the polyline) are searched
-    point by point (`_pointwise`, `_redo`). For the 49,152 points (samples and
+    point by point (`_pointwise`, `_redo`). For the 65,536 points (samples and
     midpoints) of a fit's curve against its outline's 6,144 samples (STIXGeneral 'S' at
-    1024 px), the passes over all pairs hold an eighth of the pairs, and 0.07% of the
-    clusters were unsure: 128 ms against 286 ms point by point (2026-12-05, one run).
+    1024 px, n = 64), the passes over all pairs hold an eighth of the pairs, and 0.06%
+    of the clusters were unsure: 131 ms against 440 ms point by point
+    (`benchmarks/results/fit_step.md`).
     """
     m, d = points.shape
     pad = -m % CLUSTER
