@@ -46,6 +46,7 @@ _PUBLIC = {
     "limit_points": "._analysis.limit",
     "limit_second_derivatives": "._analysis.limit",
     "limit_tangents": "._analysis.limit",
+    "supports_clamped_derivatives": "._analysis.limit",
     "Eigen": "._analysis.local",
     "curvature_stencil": "._analysis.local",
     "eigen": "._analysis.local",
@@ -100,6 +101,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see: the same names, eagerly
         limit_points as limit_points,
         limit_second_derivatives as limit_second_derivatives,
         limit_tangents as limit_tangents,
+        supports_clamped_derivatives as supports_clamped_derivatives,
     )
     from ._analysis.local import (
         Eigen as Eigen,

@@ -18,6 +18,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._curve_stencil import CurveStencil, build as build_stencil, vertex_offsets
+from .._kernel import ghost_reach, with_ghosts
 from .._misc import (
     DEFAULT_MEMORY_BUDGET,
     as_float_array,
@@ -134,14 +135,67 @@ def _derivative(points, scheme, order: int, boundary: str, caller: str) -> Array
                 "or boundary='open'."
             )
         if order > 0:
-            raise ValueError(
-                f"`{caller}` does not support boundary='clamped': the derivatives at a "
-                "clamped end depend on the end rule's own eigen-structure, which is not "
-                "implemented. Use boundary='closed' or 'open', or `limit_points` (which "
-                "supports 'clamped')."
-            )
+            check_clamped_derivatives(scheme, points.shape[-2], caller)
+            return _regular_jit(points, scheme, order, "clamped", caller)
         return _clamped_jit(points, scheme, caller)
     return _regular_jit(points, scheme, order, boundary, caller)
+
+
+def supports_clamped_derivatives(scheme: AbstractCurveScheme) -> bool:
+    r"""Whether the derivatives of `scheme`'s clamped limit curve are its regular ones of
+    the polygon extended by its reflection through each end point.
+
+    True for primal schemes with a symmetric mask whose clamped rule reflects (ghost
+    points $P_{-q} = 2 P_0 - P_q$, and the end point kept): a symmetric primal rule maps
+    a polygon symmetric through $P_0$ ($P_{-q} + P_q = 2 P_0$) to one symmetric through
+    the same point, which it keeps, so every clamped level is the uniform rule on that
+    infinite polygon, and the clamped limit curve is the uniform limit curve of the
+    reflected polygon: $C(-t) = 2 P_0 - C(t)$, hence $C''(0) = 0$ (a natural end). The
+    cubic B-spline, split-and-tweak, Jarek and Lane-Riesenfeld of odd degree. The
+    four-point scheme's clamped rule repeats the end points instead (not symmetric
+    through them), and dual schemes add the end point to each level: their ends have
+    eigen-structures of their own, not implemented.
+
+    Where True, `limit_tangents`, `limit_second_derivatives`, `limit_curvature` and
+    `curve_stencil`/`limit_curve` with `derivative >= 1` accept `boundary="clamped"`
+    (and `fitting.fit` models clamped curves of $C^1$ schemes by Hermite segments).
+    Decided on the host from the scheme's type and mask; a traced mask of a primal
+    reflecting scheme (every registered one is symmetric for any parameter) counts as
+    symmetric.
+    """
+    if scheme.clamp_ghost != "reflect" or not scheme.is_primal:
+        return False
+    if is_traced(scheme.mask()):
+        return True  # the registered primal reflecting schemes are symmetric for any value
+    mask = np.asarray(scheme.mask())
+    return bool(np.allclose(mask, mask[::-1], rtol=0, atol=1e-12 * np.max(np.abs(mask))))
+
+
+def check_clamped_derivatives(scheme: AbstractCurveScheme, n: int, caller: str) -> None:
+    """`supports_clamped_derivatives`, or a ValueError naming the caller and the way out; and
+    enough points that the reflection through one end does not reach past the other."""
+    if not supports_clamped_derivatives(scheme):
+        raise ValueError(
+            f"`{caller}` does not support boundary='clamped' for {type(scheme).__name__}: "
+            "its clamped end rule (ghost points repeated, or a dual scheme's added end "
+            "point) gives the ends an eigen-structure of their own, which is not "
+            "implemented. Derivatives at clamped ends are supported for the cubic "
+            "B-spline, SplitTweak, Jarek and LaneRiesenfeld of odd degree; otherwise use "
+            "boundary='closed' or 'open', or derivative 0 (`limit_points`)."
+        )
+    reach = max(abs(u) for u in neighborhood(scheme, "vertex"))
+    ghosts = max(reach, *clamped_ghosts(scheme))
+    if n <= ghosts:
+        raise ValueError(
+            f"`{caller}` with boundary='clamped' needs at least {ghosts + 1} points for "
+            f"{type(scheme).__name__} (its reflected end reaches {ghosts} points in); got "
+            f"n={n}."
+        )
+
+
+def clamped_ghosts(scheme: AbstractCurveScheme) -> tuple[int, int]:
+    """The ghost points one clamped level reads before and after a long polygon."""
+    return ghost_reach(64, scheme.mask_start, scheme.mask_length, scheme.center)
 
 
 def _regular(points, scheme, order: int, boundary: str, caller: str) -> Array:
@@ -149,6 +203,9 @@ def _regular(points, scheme, order: int, boundary: str, caller: str) -> Array:
     weights = stencil_values(scheme, order, "vertex").astype(points.dtype)
     if boundary == "closed":
         return _closed(points, weights, offsets)
+    if boundary == "clamped":  # the regular stencils on the reflected polygon
+        reach = max(abs(u) for u in offsets)
+        points = with_ghosts(points, reach, reach, "reflect")
     return _open(points, weights, offsets, caller)
 
 
@@ -170,7 +227,12 @@ _ARGS = """**Arguments:**
   on the open limit curve, i.e. whose whole neighborhood is inside the polygon: points
   `a .. n-1-a` with `a = len(neighborhood(scheme, "vertex")) // 2` (cubic B-spline and
   Chaikin `a = 1`, four-point `a = 2`). The same curve `refine(..., boundary="open")`
-  converges to."""
+  converges to. Or `"clamped"` (`refine(..., boundary="clamped")`'s curve, every
+  point): derivatives for primal schemes whose clamped rule reflects the polygon
+  through its end points (the cubic B-spline, `SplitTweak`, `Jarek`,
+  `LaneRiesenfeld` of odd degree), where that curve is the regular limit curve of
+  the reflected polygon, so the regular stencils apply to it, with $C''$ zero at the
+  ends (see [`jaxsubdiv.supports_clamped_derivatives`][]); other schemes raise a `ValueError`."""
 
 
 def limit_points(
@@ -188,10 +250,9 @@ def limit_points(
     costs one small convolution, and applied to `refine(P, scheme, k)` gives exact
     samples of the limit curve at spacing $2^{-k}$.
 
-    {ARGS}
-  `"clamped"` (end points kept; the ends map to themselves and interior points are
-  evaluated exactly after a few clamped levels) is supported for schemes with a clamped
-  rule. Keyword only.
+    {ARGS} For positions, `"clamped"` (end points kept; the ends map to themselves and
+  interior points are evaluated exactly after a few clamped levels) is supported for
+  every scheme with a clamped rule. Keyword only.
 
     **Returns:** the limit positions, shape `(..., m, d)`: `m = n` for closed and clamped
     curves, `n - 2a` for open ones.
@@ -203,7 +264,7 @@ def limit_tangents(
     points: Float[ArrayLike, "*batch n d"],
     scheme: AbstractCurveScheme,
     *,
-    boundary: Literal["closed", "open"] = "closed",
+    boundary: Boundary = "closed",
 ) -> Float[Array, "*batch m d"]:
     r"""Exact tangent vectors $dC/dt$ of the limit curve at every point of a polygon.
 
@@ -223,7 +284,7 @@ def limit_second_derivatives(
     points: Float[ArrayLike, "*batch n d"],
     scheme: AbstractCurveScheme,
     *,
-    boundary: Literal["closed", "open"] = "closed",
+    boundary: Boundary = "closed",
 ) -> Float[Array, "*batch m d"]:
     r"""Exact second derivatives $d^2C/dt^2$ of the limit curve at every point.
 
@@ -242,7 +303,7 @@ def limit_curvature(
     points: Float[ArrayLike, "*batch n d"],
     scheme: AbstractCurveScheme,
     *,
-    boundary: Literal["closed", "open"] = "closed",
+    boundary: Boundary = "closed",
 ) -> Float[Array, "*batch m"]:
     r"""Exact curvature of the limit curve at every point of a polygon.
 
@@ -322,7 +383,8 @@ def curve_stencil(
     - `derivative`: 0 for the limit points (`limit_points(refine(P, L))`), 1 for the
       tangents and 2 for the second derivatives with respect to the level-0 parameter
       (one unit per control point: $2^L$ and $4^L$ times `limit_tangents` and
-      `limit_second_derivatives` of `refine(P, L)`; clamped curves support 0 only), or
+      `limit_second_derivatives` of `refine(P, L)`; on clamped curves, derivatives for
+      the schemes `limit_tangents` supports there), or
       `None` for the refined points themselves (`refine(P, L)`). Static.
     - `dtype`: of the weights (default: the scheme's mask's).
     - `creases`: `None`, or a boolean mask `(n,)` of the control points where a closed
@@ -385,12 +447,9 @@ def _check_stencil_arguments(scheme, n, levels, boundary, derivative, caller):
                     "points or more levels."
                 )
         if boundary == "clamped" and derivative > 0:
-            raise ValueError(
-                f"`{caller}` does not support derivatives with boundary='clamped': the "
-                "derivatives at a clamped end depend on the end rule's own "
-                "eigen-structure, which is not implemented. Use boundary='closed' or "
-                "'open', or derivative=0."
-            )
+            # The stencils read the refined polygon (refined with the capped ghosts of
+            # a short one, whose clamped curve that is): its count must suffice.
+            check_clamped_derivatives(scheme, _count(n, scheme, levels, "clamped", ()), caller)
     return scheme
 
 
@@ -450,7 +509,8 @@ def limit_curve(
     `derivative=2` gives $d^2C/dt^2$ with respect to the level-0 parameter $t$ (one unit
     per control point), so the samples of every `levels` are samples of the same
     functions (like `scipy.interpolate.BSpline(x, nu)`); the scheme must be $C^1$ or
-    $C^2$. Clamped curves support `derivative=0` only (see `limit_tangents`).
+    $C^2$. On clamped curves, derivatives for the schemes whose clamped rule
+    reflects the polygon (see `limit_tangents`).
 
     **Arguments:**
 
