@@ -94,10 +94,11 @@ def uses_tangents(scheme, names, boundary) -> bool:
     corner cutting has none (it is C^1 only on the line s = r + 1/2), so fitting r or s
     uses chords. Traced parameter values are assumed to lie in their C^1 intervals (so
     that the model, and the optimum, are the same as for concrete values there). A
-    concrete scheme is checked with `jaxsubdiv.smoothness`. Clamped ends have no tangent
-    rule yet.
+    concrete scheme is checked with `jaxsubdiv.smoothness`. Clamped ends need a tangent
+    rule there ([`jaxsubdiv.supports_clamped_derivatives`][]: the primal schemes whose
+    clamped rule reflects the polygon; not the four-point scheme or dual ones).
     """
-    if boundary == "clamped":
+    if boundary == "clamped" and not js.supports_clamped_derivatives(scheme):
         return False
     try:
         parameters = js.scheme_info(scheme).parameters

@@ -185,8 +185,11 @@ def test_open_curves(boundary):
     size = np.linalg.norm(np.ptp(samples, axis=0))
     assert float(result.rms) < 1e-2 * size
     # The reported distance is what a brute-force measurement against a 32x finer
-    # polyline of the limit curve finds (to the chords' own error for clamped ends,
-    # whose curve model is the polyline: 2.5e-4 measured).
+    # polyline of the limit curve finds. Clamped ends have exact tangents now
+    # (reflected ghost points), so both fits use the Hermite curve model.
+    from fitting._params import uses_tangents
+
+    assert uses_tangents(js.CubicBSpline(), (), boundary)
     fine = js.refine(result.control_points, js.CubicBSpline(), result.levels + 5, boundary=boundary)
     dense = np.asarray(js.limit_points(fine, js.CubicBSpline(), boundary=boundary))
     t2c = polyline_distances(samples, dense, closed=False)
@@ -888,8 +891,10 @@ def test_gradient_with_respect_to_target(scheme):
 
 @pytest.mark.parametrize("boundary", ["closed", "clamped"])
 def test_gradient_of_the_reported_errors(boundary):
-    # Both directions of the two-sided error, on the Hermite curve (closed) and on
-    # chords (clamped ends): each is differentiated at its nearest points held fixed.
+    # Both directions of the two-sided error, on the Hermite curve (closed cubic
+    # B-spline) and on chords (the clamped four-point curve, which has no tangent rule
+    # at its ends): each is differentiated at its nearest points held fixed.
+    scheme = js.CubicBSpline() if boundary == "closed" else js.FourPoint(1 / 16)
     samples, _ = _small_problem()
     if boundary == "clamped":
         samples = samples[:45]
@@ -911,7 +916,7 @@ def test_gradient_of_the_reported_errors(boundary):
     smoothing = 1e-2 if boundary == "closed" else 0.0
 
     def errors(target):
-        result = fitting.fit(target, js.CubicBSpline(), 8, levels=8, boundary=boundary,
+        result = fitting.fit(target, scheme, 8, levels=8, boundary=boundary,
                              tol=1e-12, max_steps=400, smoothing=smoothing)
         return jnp.stack([getattr(result, name) for name in fields])
 

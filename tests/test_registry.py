@@ -306,7 +306,11 @@ def test_uses_tangents_follows_the_c1_ranges():
     assert uses_tangents(js.FourPoint(1 / 16), (), "closed")
     assert uses_tangents(js.FourPoint(1 / 16), ("w",), "open")
     assert not uses_tangents(js.FourPoint(0.2), (), "closed")
-    assert not uses_tangents(js.FourPoint(1 / 16), (), "clamped")
+    assert not uses_tangents(js.FourPoint(1 / 16), (), "clamped")  # repeated end points
+    # Clamped ends reflected through the end point: exact tangents there.
+    assert uses_tangents(js.CubicBSpline(), (), "clamped")
+    assert uses_tangents(js.SplitTweak(0.4), ("t",), "clamped")
+    assert not uses_tangents(js.Chaikin(), (), "clamped")  # a dual scheme's end
     assert uses_tangents(js.CornerCutting(0.25, 0.75), (), "closed")
     assert not uses_tangents(js.CornerCutting(0.25, 0.75), ("r",), "closed")
     assert not uses_tangents(js.CornerCutting(0.3, 0.7), (), "closed")
