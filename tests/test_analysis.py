@@ -203,6 +203,36 @@ def test_clamped_derivatives_match_finite_differences(scheme, n):
         np.testing.assert_allclose(first[[0, -1]], [P[1] - P[0], P[-1] - P[-2]], atol=1e-13)
 
 
+def test_clamped_four_point_ends_are_singular():
+    """The four-point scheme's clamped end (end points repeated as ghosts): the point
+    next to the end at level m is P_0 plus combinations of lambda^m, lambda the roots of
+    lambda^2 - (1/2 + w) lambda + w (closed form of the 3x3 end rule). At w = 1/16 the
+    distance falls by the larger root, 0.41, per level (not 1/2: zero speed at the end)
+    along a fixed direction; at w = 0.1 (complex roots of modulus sqrt(w)) the direction
+    keeps turning: no tangent at the end. The library's clamped refinement, one level
+    at a time on the first four points (which the next level's first four depend on
+    alone)."""
+    step = jax.jit(lambda Q, w: js.refine(Q, js.FourPoint(w), 1, boundary="clamped")[:4])
+
+    def next_to_end(w, levels):
+        Q, out = _polygon(4), []
+        for _ in range(levels):
+            Q = step(Q, w)
+            out.append(np.asarray(Q[1] - Q[0]))
+        return np.array(out)
+
+    near = next_to_end(1 / 16, 30)[10:]
+    distance = np.linalg.norm(near, axis=1)
+    largest = max(np.roots([1.0, -(0.5 + 1 / 16), 1 / 16]).real)  # 0.4100
+    np.testing.assert_allclose(distance[1:] / distance[:-1], largest, rtol=1e-4)
+    cosine = np.sum(near[0] * near[-1]) / distance[0] / distance[-1]
+    assert cosine > 1 - 1e-6
+    assert np.all(np.iscomplex(np.roots([1.0, -0.6, 0.1])))
+    turning = next_to_end(0.1, 40)
+    angle = np.unwrap(np.arctan2(turning[:, 1], turning[:, 0]))
+    assert abs(angle[-1] - angle[0]) > 2 * np.pi  # more than a whole turn
+
+
 @pytest.mark.parametrize("w", [-0.1, 0.0, 1 / 16, 0.2])
 @pytest.mark.parametrize("boundary", ["closed", "open"])
 def test_interpolating_limit_points_are_the_points(w, boundary):

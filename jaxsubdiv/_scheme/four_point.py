@@ -46,7 +46,15 @@ class FourPoint(AbstractCurveScheme):
 
     Boundaries: `"closed"`, `"open"` ($n \to 2n - 5$), `"clamped"` (the classic rule:
     the end points are repeated as ghost points at every level; $n \to 2n - 1$), and
-    creases.
+    creases. The clamped end is not a regular point of the curve: the rule maps
+    $(P_0, P_1, P_2)$ to $(P_0, \tfrac12 P_0 + (\tfrac12 + w) P_1 - w P_2, P_1)$, with
+    eigenvalues $1$ and the roots of $\lambda^2 - (\tfrac12 + w)\lambda + w$, not
+    $\tfrac12$. For $0 < w < (3 - \sqrt 8)/2 \approx 0.0858$ (so at $w = 1/16$) the
+    larger root is below $\tfrac12$ (0.41 at $1/16$): the curve leaves its end
+    tangentially but with zero speed, $|C(t) - P_0| \sim t^{1.29}$. From $0.0858$ on
+    the roots are complex: the curve winds around its end point without a tangent
+    there, although the closed scheme is $C^1$ up to $w = 0.19$ (tested in
+    `tests/test_analysis.py`).
 
     Reference: N. Dyn, D. Levin, J. A. Gregory, "A 4-point interpolatory subdivision
     scheme for curve design", Computer Aided Geometric Design 4 (1987) 257-268.
