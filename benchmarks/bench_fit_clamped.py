@@ -178,10 +178,7 @@ def main():
     log = lambda text: print(f"[{time.perf_counter() - begin:6.0f} s] {text}",  # noqa: E731
                              file=sys.stderr, flush=True)
     header = _common.header(jax=jax.__version__, git=quality.git_revision(fitting.__file__))
-    fonts, chars = ((quality.FONTS[:1], quality.CHARS[:2]) if args.smoke
-                    else (quality.FONTS, quality.CHARS))
-    strokes = {f"{family} '{char}'": ends.stroke(quality.glyph(family, char))
-               for family in fonts for char in chars}
+    strokes = ends.glyph_strokes(args.smoke)
     rows = run(strokes, SCHEMES[:1] if args.smoke else SCHEMES, log)
     header["load_end"] = _common.load()
     header["wall_seconds"] = time.perf_counter() - begin

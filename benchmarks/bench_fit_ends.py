@@ -46,6 +46,15 @@ def stroke(outline):
     return np.stack([np.interp(at, arc, closed[:, k]) for k in range(2)], 1)
 
 
+def glyph_strokes(smoke: bool) -> dict:
+    """The strokes by name: every font and glyph of `bench_fit_quality`, or two for a
+    smoke run."""
+    fonts, chars = ((quality.FONTS[:1], quality.CHARS[:2]) if smoke
+                    else (quality.FONTS, quality.CHARS))
+    return {f"{family} '{char}'": stroke(quality.glyph(family, char))
+            for family in fonts for char in chars}
+
+
 def end_gap(result, samples, boundary):
     # At the fit's own levels: an open Chaikin curve's first kept point moves towards
     # the limit curve's end as levels grow (weights 0.47/0.53 at 4 levels, 0.5/0.5 in
@@ -139,10 +148,7 @@ def main():
     log = lambda text: print(f"[{time.perf_counter() - begin:6.0f} s] {text}",  # noqa: E731
                              file=sys.stderr, flush=True)
     header = _common.header(jax=jax.__version__, git=quality.git_revision(fitting.__file__))
-    fonts, chars = ((quality.FONTS[:1], quality.CHARS[:2]) if args.smoke
-                    else (quality.FONTS, quality.CHARS))
-    strokes = {f"{family} '{char}'": stroke(quality.glyph(family, char))
-               for family in fonts for char in chars}
+    strokes = glyph_strokes(args.smoke)
     header["repeats"] = 1 if args.smoke else 3
     rows = run(strokes, MODELS[:1] if args.smoke else MODELS, header["repeats"], log)
     header["load_end"] = _common.load()
