@@ -222,21 +222,12 @@ def one_case(family: str, char: str, size: int, repeats: int) -> dict:
 
 
 def unsure_share(points, curve, closed: bool, count) -> float:
-    """The share of `_curve._clustered`'s clusters that its certificate leaves unsure
-    (its first lines, repeated here)."""
+    """The share of `_curve._clustered`'s clusters that its certificate leaves unsure."""
     import jax.numpy as jnp
 
     from fitting import _curve
 
-    m = points.shape[0]
-    padded = jnp.concatenate([points, jnp.repeat(points[-1:], -m % _curve.CLUSTER, axis=0)])
-    members = padded.reshape(-1, _curve.CLUSTER, points.shape[1])
-    center = 0.5 * (jnp.min(members, axis=1) + jnp.max(members, axis=1))
-    rho = jnp.sqrt(jnp.max(jnp.sum((members - center[:, None, :]) ** 2, -1), axis=1))
-    coarse, _, nearest, segment, fraction = _curve._coarse_to_fine(center, curve, closed, 8,
-                                                                   count)
-    found = _curve._found(center, curve, closed, segment, fraction)
-    unsure = _curve._unsure(center, curve, closed, coarse, count, nearest, found + 2 * rho)
+    _, _, unsure = _curve.cluster_certificate(points, curve, closed, 8, count)
     return float(jnp.mean(unsure))
 
 

@@ -492,15 +492,8 @@ def _clustered(points, curve, closed, coarse, chunk, count):
     of the clusters were unsure: 131 ms against 440 ms point by point
     (`benchmarks/results/fit_step.md`).
     """
-    m, d = points.shape
-    pad = -m % CLUSTER
-    padded = jnp.concatenate([points, jnp.repeat(points[-1:], pad, axis=0)])
-    members = padded.reshape(-1, CLUSTER, d)
-    center = 0.5 * (jnp.min(members, axis=1) + jnp.max(members, axis=1))
-    rho = jnp.sqrt(jnp.max(jnp.sum((members - center[:, None, :]) ** 2, -1), axis=1))
-    coarse, _, nearest, segment, fraction = _coarse_to_fine(center, curve, closed, coarse, count)
-    found = _found(center, curve, closed, segment, fraction)
-    unsure = _unsure(center, curve, closed, coarse, count, nearest, found + 2 * rho)
+    m = points.shape[0]
+    coarse, nearest, unsure = cluster_certificate(points, curve, closed, coarse, count)
     each = lambda x: jnp.repeat(x, CLUSTER, axis=0)[:m]
     offsets = jnp.arange(-coarse - 1, coarse + 1)  # `_coarse_to_fine`'s window
     start = each(nearest) * coarse
@@ -509,6 +502,22 @@ def _clustered(points, curve, closed, coarse, chunk, count):
                                         start[:, None] + offsets[None, :], count)
     return _redo(each(unsure), (segment, fraction),
                  lambda p: _pointwise(p, curve, closed, coarse, chunk, count), points)
+
+
+def cluster_certificate(points, curve, closed, coarse, count):
+    """`_clustered`'s search of the clusters' centers: `(coarse, nearest, unsure)`, each
+    cluster's nearest coarse vertex and whether the certificate at its center's distance
+    plus twice its radius leaves it unsure (also what `benchmarks/bench_fit_step.py`
+    counts)."""
+    m, d = points.shape
+    padded = jnp.concatenate([points, jnp.repeat(points[-1:], -m % CLUSTER, axis=0)])
+    members = padded.reshape(-1, CLUSTER, d)
+    center = 0.5 * (jnp.min(members, axis=1) + jnp.max(members, axis=1))
+    rho = jnp.sqrt(jnp.max(jnp.sum((members - center[:, None, :]) ** 2, -1), axis=1))
+    coarse, _, nearest, segment, fraction = _coarse_to_fine(center, curve, closed, coarse, count)
+    found = _found(center, curve, closed, segment, fraction)
+    return coarse, nearest, _unsure(center, curve, closed, coarse, count, nearest,
+                                    found + 2 * rho)
 
 
 def _found(points, curve, closed, segment, fraction):

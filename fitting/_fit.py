@@ -76,8 +76,8 @@ def fit(
     [`jaxsubdiv.limit_points`][]) and, for $C^1$ schemes, joined by cubic Hermite segments
     with the exact limit tangents ([`jaxsubdiv.limit_tangents`][]), otherwise by chords
     (also at clamped ends without a tangent rule, see
-    [`jaxsubdiv.supports_clamped_derivatives`][]). The default solver is an optimistix least-squares solver written for this problem:
-    it assembles the exact Hessian of the squared distances in closed form (the foot
+    [`jaxsubdiv.supports_clamped_derivatives`][]). The default solver is an optimistix
+    least-squares solver written for this problem: it assembles the exact Hessian of the squared distances in closed form (the foot
     points eliminated as in variable projection) instead of differentiating a black
     box. Scheme parameters stay in their valid open ranges through a smooth
     reparameterisation (see `fitting._params`).
