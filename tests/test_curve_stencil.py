@@ -412,24 +412,27 @@ def _pieces_by_refine(P, scheme, levels, creases):
     return np.roll(np.concatenate(out), cuts[0] * 2**levels, axis=0)
 
 
-def _bspline_pieces_by_scipy(P, levels, creases):
+def _bspline_pieces_by_scipy(P, levels, creases, derivative=0, side="right"):
     """The creased closed cubic B-spline by scipy: each piece between creases is a
     uniform cubic B-spline whose polygon is extended by the reflections 2 P_0 - P_1 and
-    2 P_D - P_{D-1} (the clamped end's ghost points), from its first to its last point."""
+    2 P_D - P_{D-1} (the clamped end's ghost points), from its first to its last point;
+    its `derivative` (`BSpline(nu=...)`), at a crease from the piece that starts there
+    (`side="right"`) or ends there (`"left"`)."""
     from scipy.interpolate import BSpline
 
     n, rows = len(P), 2**levels
     cuts = sorted(creases)
     out = []
+    shift = 0 if side == "right" else 1  # "left": each piece's samples (0, D], not [0, D)
     for k, c in enumerate(cuts):
         end = cuts[k + 1] if k + 1 < len(cuts) else cuts[0] + n
         piece = P[np.arange(c, end + 1) % n]
         D = len(piece) - 1
         ghosts = np.vstack([2 * piece[0] - piece[1], piece, 2 * piece[-1] - piece[-2]])
         knots = np.arange(len(ghosts) + 4) - 3.0  # piece point p (ghost index p + 1) at t = p
-        u = np.arange(D * rows) / rows
-        out.append(BSpline(knots, ghosts, 3)(u))
-    return np.roll(np.concatenate(out), cuts[0] * rows, axis=0)
+        u = (np.arange(D * rows) + shift) / rows
+        out.append(BSpline(knots, ghosts, 3)(u, nu=derivative))
+    return np.roll(np.concatenate(out), cuts[0] * rows + shift, axis=0)
 
 
 @pytest.mark.parametrize("name, scheme", _CREASE_SCHEMES)
@@ -463,6 +466,63 @@ def test_creased_table_equals_its_pieces(name, scheme):
         assert tables.count == 0
 
 
+# Derivatives of creased curves: the schemes whose clamped pieces have exact end
+# derivatives (`supports_clamped_derivatives`), reach 1 and 2.
+_CREASE_DERIVATIVE_SCHEMES = [("cubic_bspline", js.CubicBSpline()),
+                              ("split_tweak", js.SplitTweak(0.3)), ("jarek", js.Jarek())]
+# One crease (the piece wraps onto itself), neighbours (a piece of one span), uneven gaps.
+_CREASE_DERIVATIVE_SETS = [(5, (2,)), (9, (0, 3, 4, 8)), (9, (0, 1, 5))]
+
+
+def _one_sided_differences(C, K, h, derivative, side):
+    """Second-order one-sided differences at samples `K` of the closed sampled curve `C`
+    (spacing h), from the samples after K (`side="right"`) or before it."""
+    s = 1 if side == "right" else -1
+    c = lambda o: C[(K + s * o) % len(C)]
+    if derivative == 1:
+        return s * (-3 * c(0) + 4 * c(1) - c(2)) / (2 * h)
+    return (2 * c(0) - 5 * c(1) + 4 * c(2) - c(3)) / h**2
+
+
+@pytest.mark.parametrize("name, scheme", _CREASE_DERIVATIVE_SCHEMES)
+def test_creased_derivatives_are_one_sided_at_the_creases(name, scheme):
+    """`curve_stencil(creases=mask, derivative=1 or 2, side=...)` against one-sided
+    differences (spacing 2^-10) of the pieces' limit points (`_pieces_by_refine`: each
+    clamped piece refined by the kernel's own rules), on both sides of every sample:
+    tangents for every scheme, second derivatives for the cubic B-spline (the others'
+    are only Hoelder continuous, and differences converge too slowly to test); for the
+    cubic B-spline also against scipy's BSpline of the reflected pieces. At the creases
+    the two sides differ; elsewhere they are the same rows."""
+    rng = np.random.default_rng(len(name))
+    levels, fine = 3, 10
+    orders = (1, 2) if isinstance(scheme, js.CubicBSpline) else (1,)
+    for size, creases in _CREASE_DERIVATIVE_SETS:
+        P = rng.normal(size=(size, 2))
+        mask = jnp.asarray(_crease_mask(size, creases))
+        dense = _pieces_by_refine(P, scheme, fine, creases)
+        K = np.arange(size * 2**levels)
+        at_crease = np.isin(K, np.asarray(creases) * 2**levels)
+        for derivative in orders:
+            sides = {}
+            for side in ("right", "left"):
+                table = js.curve_stencil(scheme, size, levels, derivative=derivative,
+                                         creases=mask, side=side)
+                got = sides[side] = np.asarray(table.apply(P))
+                want = _one_sided_differences(dense, K * 2 ** (fine - levels), 2.0**-fine,
+                                              derivative, side)
+                scale = np.max(np.abs(got))
+                np.testing.assert_allclose(got, want, atol=2e-4 * scale,
+                                           err_msg=f"{creases} {derivative} {side}")
+                if isinstance(scheme, js.CubicBSpline):
+                    np.testing.assert_allclose(
+                        got, _bspline_pieces_by_scipy(P, levels, creases, derivative, side),
+                        atol=1e-12, err_msg=f"{creases} {derivative} {side}")
+            np.testing.assert_array_equal(sides["right"][~at_crease], sides["left"][~at_crease])
+            if derivative == 1:
+                assert np.all(np.linalg.norm(sides["right"] - sides["left"], axis=1)[at_crease]
+                              > 1e-3 * scale)
+
+
 def test_creased_table_is_differentiable_in_the_parameter():
     """d/dw of a creased four-point curve against central finite differences."""
     P = np.random.default_rng(3).normal(size=(9, 2))
@@ -489,6 +549,11 @@ def test_creased_table_errors():
         js.curve_stencil(js.Daubechies(), 6, 2, creases=mask)
     with pytest.raises(ValueError, match="center"):
         js.curve_stencil(js.LaneRiesenfeld(3), 6, 2, creases=mask)
+    # Derivatives: only where the pieces' clamped ends have them, and a side that exists.
+    with pytest.raises(ValueError, match="does not support boundary='clamped' for FourPoint"):
+        js.curve_stencil(js.FourPoint(0.05), 6, 2, derivative=1, creases=mask)
+    with pytest.raises(ValueError, match="side"):
+        js.curve_stencil(js.CubicBSpline(), 6, 2, derivative=1, creases=mask, side="both")
     P = np.random.default_rng(0).normal(size=(6, 2))
     plain = js.limit_curve(P, js.CubicBSpline(), 2)
     # No creases, one as an int, and a list of bools: as refine takes them.

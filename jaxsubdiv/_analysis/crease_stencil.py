@@ -153,15 +153,23 @@ def creased_stencil(
     reach: int,
     dtype,
     _stencil: Tables,
+    derivative: int = 0,
+    side: str = "right",
 ) -> CurveStencil:
     """The closed curve's limit table with creases at the control points where the mask
     `creases` is True (traceable; see the module's docstring). `reach` from
     `crease_reach`; `_stencil` the library's tables (`Tables`). No checks:
-    `jaxsubdiv.curve_stencil(creases=...)` makes them."""
+    `jaxsubdiv.curve_stencil(creases=...)` makes them.
+
+    `derivative` 1 or 2: the pieces' clamped derivative tables (the schemes of
+    `jaxsubdiv.supports_clamped_derivatives`), one-sided at the creases: `side="right"`
+    the derivative of the piece that starts there (row 0 of its table), `"left"` that of
+    the piece that ends there (its last row). Elsewhere both sides are the same rows."""
     rows = 2**levels
     spans = list(range(1, 2 * reach)) + [2 * reach]
-    pieces = [_stencil(scheme, D + 1, levels, "clamped", 0, dtype).dense() for D in spans]
-    closed = _stencil(scheme, 2 * reach + 4, levels, "closed", 0, dtype)
+    pieces = [_stencil(scheme, D + 1, levels, "clamped", derivative, dtype).dense()
+              for D in spans]
+    closed = _stencil(scheme, 2 * reach + 4, levels, "closed", derivative, dtype)
     # Columns relative to a sample's own control point: every piece's rows read at most
     # its whole piece; the periodic rows their window.
     f0 = closed.first[:rows].astype(np.int64)
@@ -170,14 +178,15 @@ def creased_stencil(
     hi = max(2 * reach, int(f0.max()) + closed.width - 1)
     width = hi - lo + 1
     library, offsets = [], {}
-    for D, table in zip(spans[:-1], pieces[:-1]):  # both ends may reach: every row
+    # Every row of the short pieces, their last (a crease's, from the left) included.
+    for D, table in zip(spans[:-1], pieces[:-1]):  # both ends may reach
         offsets[D] = sum(x.shape[0] for x in library)
-        library.append(_piece_rows(table, np.arange(D * rows), levels, lo, width))
+        library.append(_piece_rows(table, np.arange(D * rows + 1), levels, lo, width))
     long = pieces[-1]
     offsets["left"] = sum(x.shape[0] for x in library)
     library.append(_piece_rows(long, np.arange(reach * rows), levels, lo, width))
-    offsets["right"] = sum(x.shape[0] for x in library)  # y = 1 ... reach 2^L from the end
-    library.append(_piece_rows(long, 2 * reach * rows - np.arange(1, reach * rows + 1),
+    offsets["right"] = sum(x.shape[0] for x in library)  # y = 0 ... reach 2^L from the end
+    library.append(_piece_rows(long, 2 * reach * rows - np.arange(reach * rows + 1),
                                levels, lo, width))
     offsets["periodic"] = sum(x.shape[0] for x in library)
     column = f0[:, None] - lo + np.arange(closed.width)[None, :]
@@ -201,6 +210,13 @@ def creased_stencil(
     K = np.arange(n * rows)
     i, phi = K // rows, jnp.asarray(K % rows)
     a, b = a[i], b[i]
+    if side == "left":
+        # At a crease the piece that ends there: from the crease before (one turn back
+        # when it is the only one) to this one, its last row (b = 0).
+        before = jax.lax.cummax(jnp.where(marked, index, -1))[n - 1 : 2 * n - 1]
+        at_crease = creases[i] & (phi == 0)
+        a = jnp.where(at_crease, (jnp.arange(n) + n - before)[i], a)
+        b = jnp.where(at_crease, 0, b)
     x, y = a * rows + phi, b * rows - phi  # samples from the last and to the next crease
     D = a + b
     exact = jnp.zeros_like(x)
@@ -209,7 +225,7 @@ def creased_stencil(
     row = jnp.where(
         D < 2 * reach, exact,
         jnp.where(x < reach * rows, offsets["left"] + x,
-                  jnp.where(y <= reach * rows, offsets["right"] + y - 1,
+                  jnp.where(y <= reach * rows, offsets["right"] + y,
                             offsets["periodic"] + phi)))
     first = (i + lo) % n
     return CurveStencil(HostIndex(first), library[row], n, True)

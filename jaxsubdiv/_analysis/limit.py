@@ -362,6 +362,7 @@ def curve_stencil(
     derivative: int | None = 0,
     dtype=None,
     creases=None,
+    side: Literal["right", "left"] = "right",
 ) -> CurveStencil:
     r"""The linear map from `n` control points to the limit curve at the dyadic
     parameters of `levels` levels, as a banded table ([`jaxsubdiv.CurveStencil`][]).
@@ -391,8 +392,13 @@ def curve_stencil(
       curve has a corner (as `refine(creases=...)`, which takes their indices: the
       curve is cut there into clamped pieces). Unlike `refine`'s, the mask may be
       traced: the table's layout depends only on `n` and `levels`, so new creases
-      compile nothing. Closed curves of primal schemes with a clamped end rule, and
-      `derivative=0`. See `jaxsubdiv._analysis.crease_stencil`.
+      compile nothing. Closed curves of primal schemes with a clamped end rule; with
+      `derivative` 1 or 2, those whose clamped rule reflects the polygon
+      ([`jaxsubdiv.supports_clamped_derivatives`][]: each piece's derivatives are its
+      clamped ones). See `jaxsubdiv._analysis.crease_stencil`.
+    - `side`: at a crease the derivative jumps: `"right"` (default) gives the one of the
+      piece that starts there, $C'(t^+)$, `"left"` that of the piece that ends there,
+      $C'(t^-)$. Elsewhere, and for `derivative=0`, both are the same.
 
     **Returns:** a `CurveStencil`; `table.apply(P)` gives the outputs, as many as
     `limit_points(refine(P, L))` has rows (open curves lose the stencil's reach at each
@@ -400,22 +406,35 @@ def curve_stencil(
     """
     scheme = _check_stencil_arguments(scheme, n, levels, boundary, derivative, "curve_stencil")
     dtype = scheme.mask().dtype if dtype is None else jnp.dtype(dtype)
+    _check_side(side, "curve_stencil")
     if creases is not None:
-        mask, reach = _check_creases_mask(scheme, n, boundary, derivative, creases)
-        return _creased_jit(scheme, n, levels, mask, reach, dtype, _stencil)
+        mask, reach = _check_creases_mask(scheme, n, levels, boundary, derivative, creases)
+        return _creased_jit(scheme, n, levels, mask, reach, dtype, _stencil, derivative, side)
     return _stencil_jit(scheme, n, levels, boundary, derivative, dtype)
 
 
-def _check_creases_mask(scheme, n, boundary, derivative, creases):
+def _check_side(side, caller: str) -> None:
+    if side not in ("right", "left"):
+        raise ValueError(
+            f"`{caller}(side=...)` must be 'right' (the derivative after a crease) or "
+            f"'left' (before it); got {side!r}."
+        )
+
+
+def _check_creases_mask(scheme, n, levels, boundary, derivative, creases):
     """`curve_stencil(creases=...)`'s checks: a boolean mask (traced or not) and the
     scheme's reach (`crease_reach`)."""
-    if boundary != "closed" or derivative != 0:
+    if boundary != "closed" or derivative is None:
         raise ValueError(
-            "`curve_stencil(creases=...)` needs boundary='closed' and derivative=0 (an open "
-            "curve's creases are its pieces' ends: fit or refine the pieces); got "
-            f"boundary={boundary!r}, derivative={derivative!r}."
+            "`curve_stencil(creases=...)` needs boundary='closed' and a derivative 0, 1 or "
+            "2 (an open curve's creases are its pieces' ends: fit or refine the pieces); "
+            f"got boundary={boundary!r}, derivative={derivative!r}."
         )
     check_creasable(scheme, "curve_stencil(creases=...)")
+    if derivative > 0:
+        # A crease cuts the curve into clamped pieces, the shortest one span long.
+        check_clamped_derivatives(scheme, _count(2, scheme, levels, "clamped", ()),
+                                  "curve_stencil(creases=..., derivative>=1)")
     mask = jnp.asarray(creases)
     if mask.shape != (n,) or mask.dtype != jnp.bool_:
         raise ValueError(
@@ -489,6 +508,7 @@ def limit_curve(
     boundary: Boundary = "closed",
     derivative: int = 0,
     creases=None,
+    side: Literal["right", "left"] = "right",
     memory_budget: int = DEFAULT_MEMORY_BUDGET,
 ) -> Float[Array, "*batch N d"]:
     r"""Exact points (or derivatives) of the limit curve at the dyadic parameters of
@@ -527,7 +547,9 @@ def limit_curve(
       `refine`) or a boolean mask `(n,)` (which may be traced; see
       [`jaxsubdiv.curve_stencil`][]): the curve is cut there into clamped pieces and
       passes through each with a corner, $2^L n$ samples for primal schemes. Closed
-      curves, `derivative=0`.
+      curves; derivatives as for `curve_stencil(creases=...)`.
+    - `side`: `"right"` or `"left"`: which one-sided derivative at a crease (as for
+      `curve_stencil`).
     - `memory_budget`: as for [`jaxsubdiv.refine`][] (default 2 GiB); the estimate adds
       the table and its gathered windows (`N x width` weights and `N x width x d`
       coordinates). Checked before anything is built.
@@ -554,9 +576,11 @@ def limit_curve(
         extra = count * width * (itemsize + 8 + max(1, batch * d) * itemsize)
     _check_memory(n, d, batch, itemsize, scheme, levels, boundary, (),
                   checked_budget(memory_budget), extra=extra, caller="limit_curve")
+    _check_side(side, "limit_curve")
     if creases is not None:
-        mask, reach = _check_creases_mask(scheme, n, boundary, derivative, creases)
-        return _creased_jit(scheme, n, levels, mask, reach, points.dtype, _stencil).apply(points)
+        mask, reach = _check_creases_mask(scheme, n, levels, boundary, derivative, creases)
+        return _creased_jit(scheme, n, levels, mask, reach, points.dtype, _stencil,
+                            derivative, side).apply(points)
     return _limit_curve_jit(points, scheme, levels, boundary, derivative)
 
 
