@@ -449,8 +449,9 @@ def fit_batch(
     # One sample-count bucket for the whole batch: every item padded to it.
     size = bucket(max(t.shape[0] for t, _, _ in prepared))
     creased = any(c is not None for _, _, c in prepared)
-    # A creased curve is modelled by chords (as in `fit`).
-    hermite = uses_tangents(scheme, names, boundary) and not creased
+    # A creased curve is modelled as in `fit`: Hermite segments where its pieces' ends
+    # have exact tangents.
+    hermite = uses_tangents(scheme, names, boundary, creased=creased)
     if levels is None:
         levels = default_levels(n, size, hermite)
         if creased:

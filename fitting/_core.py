@@ -43,10 +43,11 @@ def make_objective(scheme, *, n: int, levels: int, boundary: str, names: tuple[s
     parameter of the profile before the joint fit (`profile_start`), 0 for none.
     `pin_ends`: the curve's ends on the first and last samples (`end_pivots`).
     `corners`: a closed curve creased at the control points of the samples'
-    corners (`FitData.corners`), by chords."""
+    corners (`FitData.corners`); `hermite` then says whether its pieces have exact
+    end tangents (`uses_tangents(..., creased=True)`)."""
     pivots = end_pivots(scheme, n, levels, boundary) if pin_ends else ()
     return Objective(n=n, levels=levels, boundary=boundary, names=tuple(names),
-                     hermite=hermite and not corners,
+                     hermite=hermite,
                      num_curve=curve_samples(scheme, n, levels, boundary),
                      num_target=size, profile=profile if names else 0, pivots=pivots,
                      corners=corners)
@@ -423,7 +424,8 @@ def newton_step(objective: Objective, y, data: FitData, model=None) -> Float[Arr
 def solved_structure(scheme, objective: Objective, counted: bool):
     """The pytree structure of `solve_one`'s `Solved` with the default solver (the fitted
     scheme has the structure of the given one; `counted`: the data have a `count`)."""
-    varying = dict(scheme=scheme, tangents=0.0 if objective.hermite else None,
+    tangents = (0.0, 0.0) if objective.corners else 0.0  # a creased curve's: a pair
+    varying = dict(scheme=scheme, tangents=tangents if objective.hermite else None,
                    creases=0.0 if objective.corners else None,
                    count=0.0 if counted else None,
                    feet=0.0 if objective.closed and objective.hermite else None)

@@ -606,6 +606,39 @@ def curve_tables(
     return position, eqx.tree_at(lambda t: t.weights, tangent, tangent.weights / 2**levels)
 
 
+def creased_tables(
+    scheme, n: int, levels: int, creases: Bool[Array, " n"], dtype, tangents: bool
+) -> tuple[js.CurveStencil, tuple[js.CurveStencil, js.CurveStencil] | None]:
+    """`curve_tables` of a closed curve creased at the control points `creases` (a mask,
+    which may be traced): its samples, and for the Hermite model its tangents from after
+    and from before each sample (one-sided at the creases, the same elsewhere:
+    [`jaxsubdiv.curve_stencil`][]`(side=...)`), in units of samples."""
+    position = js.curve_stencil(scheme, n, levels, creases=creases, dtype=dtype)
+    if not tangents:
+        return position, None
+    per_sample = lambda t: eqx.tree_at(lambda t: t.weights, t, t.weights / 2**levels)
+    return position, tuple(
+        per_sample(js.curve_stencil(scheme, n, levels, derivative=1, creases=creases,
+                                    side=side, dtype=dtype))
+        for side in ("right", "left"))
+
+
+def tangents_of(V, P: Float[Array, "n d"]):
+    """The curve's tangents from the tangent basis `V` (None, an `(N, n)` matrix, or a
+    creased curve's pair from after and from before each sample) and the control
+    points: the same structure, each `(N, d)`."""
+    return None if V is None else jax.tree.map(lambda v: v @ P, V)
+
+
+def kinks(V) -> Bool[Array, " N"] | None:
+    """The curve samples where a creased curve's tangents from after and from before
+    differ (its corners; `V` a pair), else None (a $C^1$ curve, or chords)."""
+    if not isinstance(V, tuple):
+        return None
+    right, left = V
+    return jnp.any(right != left, axis=tuple(range(1, right.ndim)))
+
+
 class Band(eqx.Module):
     """A curve basis stored by segments, for the banded assembly (`band_basis`).
 
@@ -619,13 +652,16 @@ class Band(eqx.Module):
     ends: Float[Array, "N 4 width"]
 
 
-def band_basis(position: js.CurveStencil, tangent: js.CurveStencil | None) -> Band:
+def band_basis(position: js.CurveStencil, tangent: js.CurveStencil | None,
+               left: js.CurveStencil | None = None) -> Band:
     """The curve's tables (`curve_tables`) by segments, read off their windows.
 
     Sample `k` reads control points `first[k] ... first[k] + w - 1`, and `first` grows by
     0 or 1 from one sample to the next (a host fact of the table's layout), so segment
     `k` reads the `w + 1` control points from `first[k]`: the next sample's row is its
-    own, shifted by that step.
+    own, shifted by that step. `left`: a creased curve's tangents from before each
+    sample (`creased_tables`), which segment `k` takes at its end `k + 1` (`tangent`
+    then holds those from after).
     """
     first, n, width = position.first, position.n, position.width
     N = len(first)
@@ -645,9 +681,10 @@ def band_basis(position: js.CurveStencil, tangent: js.CurveStencil | None) -> Ba
         return jnp.concatenate([table.weights, jnp.zeros((N, 1), table.weights.dtype)], 1)
 
     A, V = padded(position), padded(tangent)
+    W = V if left is None else padded(left)
     take = lambda M, index, rows: jnp.take_along_axis(M[rows], jnp.asarray(index), axis=1)
     ends = jnp.stack([take(A, here, slice(None)), take(V, here, slice(None)),
-                      take(A, there, nxt), take(V, there, nxt)], axis=1)
+                      take(A, there, nxt), take(W, there, nxt)], axis=1)
     return Band(start=jnp.asarray(first, jnp.int32), ends=ends)
 
 
@@ -724,13 +761,20 @@ def evaluate(
     tangents: a $C^1$ curve within $O(h^4)$ of a $C^4$ limit curve (and within
     $O(h^{1+\alpha})$ in position of any $C^{1,\alpha}$ one), so distances to it are smooth in
     the control points and the sample positions. Without, the polyline through `X` (zero
-    second derivative). `X` and `V` may carry trailing axes (e.g. basis matrices).
+    second derivative). `X` and `V` may carry trailing axes (e.g. basis matrices). A
+    creased curve's `V` is a pair, its tangents from after and from before each sample
+    (`creased_tables`): segment `k` takes the first at sample `k`, the second at `k + 1`,
+    so the curve has a corner at each crease and is $C^1$ elsewhere.
     """
     N = X.shape[0]
     seg, u = _segment(tau, N, closed)
     nxt = (seg + 1) % N if closed else seg + 1
     expand = lambda c: c.reshape(c.shape + (1,) * (X.ndim - 1))
-    ends = (X[seg], None, X[nxt], None) if V is None else (X[seg], V[seg], X[nxt], V[nxt])
+    if V is None:
+        ends = (X[seg], None, X[nxt], None)
+    else:  # a creased curve's segment starts with the tangent after, ends with the one before
+        after, before = V if isinstance(V, tuple) else (V, V)
+        ends = (X[seg], after[seg], X[nxt], before[nxt])
     combine = lambda basis: sum(expand(h) * e for h, e in zip(basis, ends) if e is not None)
     return tuple(combine(basis) for basis in _interpolation(u, V is not None)[: order + 1])
 
@@ -756,7 +800,23 @@ def _newton(points, X, V, tau, closed, steps, reach):
 
     # A loop, not unrolled: the search appears several times in the fit's program, and
     # unrolled copies cost compile time.
-    return jax.lax.fori_loop(0, steps, newton, tau)
+    tau = jax.lax.fori_loop(0, steps, newton, tau)
+    corner = kinks(V)
+    if corner is None:
+        return tau
+    # At a corner of a creased curve the distance has no stationary point: a point
+    # whose nearest is the corner sends Newton's steps back and forth across it, nearer
+    # each time but never there. Each foot goes to a corner at an end of its segment
+    # when that is at least as near (then it is the nearest point).
+    seg, _ = _segment(tau, N, closed)
+    (C,) = evaluate(X, V, tau, closed, order=0)
+    best = jnp.sum((C - points) ** 2, -1)
+    for end in (seg, (seg + 1) % N if closed else jnp.minimum(seg + 1, N - 1)):
+        there = jnp.sum((X[end] - points) ** 2, -1)
+        snap = corner[end] & (there <= best)
+        tau = jnp.where(snap, end.astype(tau.dtype), tau)
+        best = jnp.where(snap, there, best)
+    return tau
 
 
 def locate(

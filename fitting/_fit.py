@@ -211,9 +211,11 @@ def fit(
         memory_budget=memory_budget, profile=profile, pin_ends=pin_ends,
     )
     flags = corner_flags(corners, target, weights, scheme, n, boundary, pin_ends, ordered)
+    hermite = uses_tangents(scheme, names, boundary, creased=flags is not None)
     if flags is not None and not levels_given:
-        # The creased curve is modelled by chords: their default levels (checked again).
-        levels = default_levels(n, bucket(max(target.shape[0], pad_to)), False)
+        # The creased curve's model may differ from the smooth one's: its default
+        # levels (checked again).
+        levels = default_levels(n, bucket(max(target.shape[0], pad_to)), hermite)
         check_memory("fit", target.shape[0], pad_to, n, levels, scheme, boundary,
                      target.dtype, memory_budget, ordered)
     max_steps = static_int(max_steps, "max_steps", minimum=1)
@@ -236,7 +238,7 @@ def fit(
     size = bucket(max(m, pad_to))
     solver = make_solver(solver, tol, tol, progress is True)
     objective = make_objective(scheme, n=n, levels=levels, boundary=boundary, names=names,
-                               hermite=uses_tangents(scheme, names, boundary), size=size,
+                               hermite=hermite, size=size,
                                profile=profile, pin_ends=pin_ends,
                                corners=flags is not None)
     root_smoothing, tol, max_steps = traced_settings(smoothing, tol, max_steps, target.dtype,

@@ -36,20 +36,25 @@ from jaxsubdiv import AbstractCurveScheme
 
 from ._curve import (
     Band,
+    _newton,
+    _segment,
     _window_project,
     all_distances,
     band_basis,
     band_rows,
     chord_band,
+    creased_tables,
     curve_tables,
     distances,
     evaluate,
     foot_residual,
+    kinks,
     locate,
     nearest_on_curve,
     project,
     safe_norm,
     safe_sqrt,
+    tangents_of,
     track,
 )
 from ._init import second_differences
@@ -247,11 +252,13 @@ class Objective(eqx.Module):
         """The curve's basis matrices (samples, tangents or None) for `scheme`, and the
         same by segments (`_curve.Band`) for the Hessian's assembly, both from the
         curve's stencil tables (`_curve.curve_tables`; with `creases`, a mask of the
-        creased control points, the creased closed curve's, by chords)."""
+        creased control points, the creased closed curve's, `_curve.creased_tables`,
+        whose tangents are a pair: from after and from before each sample)."""
         if self.corners:
-            position = js.curve_stencil(scheme, self.n, self.levels, creases=creases,
-                                        dtype=dtype)
-            return position.dense(), None, band_basis(position, None)
+            position, tangents = creased_tables(scheme, self.n, self.levels, creases, dtype,
+                                                self.hermite)
+            V = None if tangents is None else tuple(t.dense() for t in tangents)
+            return position.dense(), V, band_basis(position, *(tangents or (None,)))
         tables = curve_tables(scheme, self.n, self.levels, self.boundary, dtype, self.hermite)
         position, tangent = tables
         V = None if tangent is None else tangent.dense()
@@ -322,7 +329,8 @@ class Objective(eqx.Module):
         X = A @ P
         # The corner samples' feet are replaced below: where the tracked search finds
         # them is no reason for a global search (they were, at every step, before).
-        tau = locate(target, X, None if V is None else V @ P, self.closed,
+        VX = tangents_of(V, P)
+        tau = locate(target, X, VX, self.closed,
                      coarse=max(1, min(8, self.num_curve // 64)),
                      previous=None if previous is None else previous[0],
                      skip=(args.corners & (weights > 0)) if self.corners else None)
@@ -336,10 +344,10 @@ class Objective(eqx.Module):
         if not self.closed:
             tau, segment, fraction = self._pin_ends(weights, tau, segment, fraction)
         if self.corners:
-            tau = jnp.where(args.corners & (weights > 0), self._corner_feet(args, X), tau)
+            tau = jnp.where(args.corners & (weights > 0), self._corner_feet(args, X, VX), tau)
         return jax.lax.stop_gradient((tau, segment, fraction))
 
-    def _corner_feet(self, args, X):
+    def _corner_feet(self, args, X, VX=None):
         """Each sample's foot near the crease of its corner (used at corner samples): the
         nearest point of the curve's chords that lie within the sample's larger gap to
         its neighbours, along the curve, from the crease.
@@ -352,7 +360,9 @@ class Objective(eqx.Module):
         cut a corner lying between samples (`test_sparse_samples_do_not_pull_the_corners_in`
         fails that way). The k-th corner sample has the k-th
         crease (`_init.corner_creases`); there are at most n corner samples, so the
-        search is over n x 2 spans' chords.
+        search is over n x 2 spans' chords. On the Hermite model (tangents `VX`) the
+        foot found on the chords is then refined on the curve (`_curve.locate`'s Newton
+        steps, which end at the crease when that is nearest).
         """
         target, dtype, N, n = args.target, X.dtype, self.num_curve, self.n
         m = target.shape[0]
@@ -378,6 +388,8 @@ class Objective(eqx.Module):
         window = jnp.where(near, first, crease[:, None])
         segment, fraction = _window_project(target[which], X, True, window)
         foot = segment + fraction
+        if VX is not None:
+            foot = _newton(target[which], X, VX, foot, True, 4, 1.0)
         # Back to one per sample (the padding rows of `which` dropped).
         valid = jnp.arange(n) < jnp.sum(corners)
         tau = jnp.zeros(m, dtype)
@@ -412,10 +424,10 @@ class Objective(eqx.Module):
         _, A, V, _ = self.basis(y, args)
         P = self.control(y, args, A)
         X = A @ P
-        VX = None if V is None else V @ P
+        VX = tangents_of(V, P)
         point, slope, bend = evaluate(X, VX, tau, self.closed, order=2)
         gap = point - target
-        line, speed2 = self._line(tau, slope)
+        line, speed2 = self._line(tau, slope, kinks(V))
         safe = jnp.where(line, speed2, 1.0)  # no division by zero, even in gradients
         along = jnp.sum(gap * slope, -1)
         if self.hermite:
@@ -456,7 +468,7 @@ class Objective(eqx.Module):
         model (else None)."""
         _, A, V, _ = self.basis(y, data)
         P = self.control(y, data, A)
-        return A @ P, None if V is None else V @ P
+        return A @ P, tangents_of(V, P)
 
     def quadratic_model(self, y, args, feet=None):
         r"""Loss, half gradient and half Hessian of the loss at `y` (flattened in
@@ -519,7 +531,7 @@ class Objective(eqx.Module):
         # Target to curve.
         gap = at(rows) - target
         slope, bend = at(slope_rows), at(bend_rows)
-        line, speed2 = self._line(tau, slope)
+        line, speed2 = self._line(tau, slope, kinks(V))
         kappa = jnp.maximum(speed2 + jnp.sum(gap * bend, -1), 0.5 * speed2)
         inverse = jnp.where(line, w / jnp.where(line, kappa, 1.0), 0.0)
         # The loss at these feet: the squared gaps themselves (an upper bound of the
@@ -694,13 +706,16 @@ class Objective(eqx.Module):
             band = jnp.where(corners[start] | corners[end], jnp.maximum(band, length), band)
         return band[segment]
 
-    def _line(self, tau, slope):
+    def _line(self, tau, slope, corner=None):
         """Which residuals are measured from the tangent line (else from a point), and the
-        squared speed there."""
+        squared speed there. `corner`: a creased Hermite curve's corner samples
+        (`_curve.kinks` of its tangent basis), where a foot is a point."""
         top = self.num_curve if self.closed else self.num_curve - 1
         frac = tau - jnp.floor(tau)
         if self.hermite:
             at_vertex = jnp.zeros_like(tau, bool) if self.closed else (tau <= 0) | (tau >= top)
+            if corner is not None:
+                at_vertex |= (frac == 0) & corner[_segment(tau, self.num_curve, True)[0]]
         else:  # a polyline's distance at a vertex is the distance to that vertex
             at_vertex = frac == 0 if self.closed else (frac == 0) | (tau >= top)
         speed2 = jnp.sum(slope**2, -1)

@@ -84,7 +84,7 @@ def from_unconstrained(scheme, names, raw: dict):
     return scheme.from_unconstrained(names, raw)
 
 
-def uses_tangents(scheme, names, boundary) -> bool:
+def uses_tangents(scheme, names, boundary, creased: bool = False) -> bool:
     """Whether the fit can use the scheme's exact limit tangents (a C1 Hermite curve).
 
     Needs a C^1 limit at every parameter the solver may visit. Fitted parameters stay in
@@ -96,9 +96,10 @@ def uses_tangents(scheme, names, boundary) -> bool:
     that the model, and the optimum, are the same as for concrete values there). A
     concrete scheme is checked with `jaxsubdiv.smoothness`. Clamped ends need a tangent
     rule there ([`jaxsubdiv.supports_clamped_derivatives`][]: the primal schemes whose
-    clamped rule reflects the polygon; not the four-point scheme or dual ones).
+    clamped rule reflects the polygon; not the four-point scheme or dual ones), and so
+    do the corners of a `creased` closed curve, whose pieces are clamped curves.
     """
-    if boundary == "clamped" and not js.supports_clamped_derivatives(scheme):
+    if (boundary == "clamped" or creased) and not js.supports_clamped_derivatives(scheme):
         return False
     try:
         parameters = js.scheme_info(scheme).parameters

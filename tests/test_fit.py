@@ -1043,6 +1043,68 @@ def test_model_matches_finite_differences_of_its_loss(scheme, hermite, n, bounda
     np.testing.assert_allclose(2 * float(v @ hessian @ v), curvature, rtol=2e-2)
 
 
+def _pillow(m=120):
+    """A closed outline with 4 corners, at samples 0, m/4, m/2, 3m/4: four arcs bulging
+    out from the sides of a square, samples evenly spaced along each."""
+    corners = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
+    side = m // 4
+    t = np.arange(side) / side
+    out = []
+    for k in range(4):
+        a, b = corners[k], corners[(k + 1) % 4]
+        middle, normal = (a + b) / 2, (a + b) / 2 / np.linalg.norm((a + b) / 2)
+        out.append(a + t[:, None] * (b - a) + 0.25 * np.sin(np.pi * t)[:, None] * normal)
+    samples = np.concatenate(out)
+    # The corner samples a little outside the corners, where the curve's corner point
+    # is their nearest (feet at the crease, where the distance is to a point).
+    samples[np.arange(4) * side] *= 1.02
+    return samples, np.arange(4) * side
+
+
+@pytest.mark.parametrize("scheme, hermite", [(js.CubicBSpline(), True), (js.FourPoint(0.06), False)],
+                         ids=["hermite", "chords"])
+def test_creased_model_matches_finite_differences_of_its_loss(scheme, hermite):
+    """With corners, the creased curve's model (Hermite segments with one-sided tangents
+    at the creases for the cubic B-spline, chords for the four-point scheme, whose
+    clamped ends have no tangent rule) against central finite differences of the loss
+    with the feet found afresh, near the fit's optimum; the fit picks that model."""
+    from fitting._checks import default_levels
+    from fitting._init import corner_creases
+    from fitting._objective import FitData, Objective
+
+    samples, at = _pillow()
+    m, n = samples.shape[0], 16
+    flags = np.zeros(m, bool)
+    flags[at] = True
+    # The corner samples weigh most (feet at the creases, where the model's Hessian is
+    # the point distance's, would otherwise be 4 of 120 terms).
+    weights = jnp.asarray(1.0 + 29.0 * flags)
+    fit = fitting.fit(samples, scheme, n, smoothing=0.01, corners=at, weights=weights)
+    assert fit.levels == default_levels(n, fitting._checks.bucket(m), hermite)
+    levels = fit.levels
+    objective = Objective(n=n, levels=levels, boundary="closed", names=(), hermite=hermite,
+                          num_curve=_curve.curve_samples(scheme, n, levels, "closed"),
+                          num_target=m, corners=True)
+    corners = jnp.asarray(flags)
+    creases = corner_creases(jnp.asarray(samples), corners, n)[0]
+    np.testing.assert_array_equal(creases, fit.creases)
+    args = FitData(target=jnp.asarray(samples), weights=weights, scheme=scheme,
+                   root_smoothing=jnp.sqrt(0.01), corners=corners, creases=creases,
+                   basis=objective.basis_of(scheme, samples.dtype, creases))
+    assert (args.basis[1] is not None) == hermite
+    direction = jnp.asarray(np.random.default_rng(4).standard_normal((n, 2)))
+    P = fit.control_points + 0.01 * direction
+    model = jax.jit(lambda P: objective.quadratic_model({"control": P, "params": {}}, args))
+    loss = lambda P: float(model(P)[0])
+    _, gradient, hessian = model(P)
+    v = np.asarray(direction).reshape(-1)
+    h = 1e-5
+    slope = (loss(P + h * direction) - loss(P - h * direction)) / (2 * h)
+    curvature = (loss(P + h * direction) - 2 * loss(P) + loss(P - h * direction)) / h**2
+    np.testing.assert_allclose(2 * float(gradient @ v), slope, rtol=1e-4)
+    np.testing.assert_allclose(2 * float(v @ hessian @ v), curvature, rtol=2e-2)
+
+
 #: Schemes with parameters, the fitted names and whether their fit uses the Hermite model.
 parameter_model_cases = [
     (js.FourPoint(0.08), ("w",), True), (js.SplitTweak(0.4), ("t",), True),
@@ -1606,12 +1668,16 @@ exported_structure_cases = [
     (js.CubicBSpline(), {}), (js.Chaikin(), {}), (js.CubicBSpline(), dict(boundary="open")),
     (js.CubicBSpline(), dict(boundary="clamped", pin_ends=True)),
     (js.FourPoint(0.07), dict(fit_params=True, profile=2)),
+    # Corners at 4 of the samples: a creased Hermite curve (tangents a pair), and chords.
+    (js.CubicBSpline(), dict(corners=[0, 30, 60, 90])),
+    (js.FourPoint(0.07), dict(corners=[0, 30, 60, 90])),
 ]
 
 
 @pytest.mark.parametrize("scheme, options", exported_structure_cases,
                          ids=["closed-hermite", "closed-chords", "open-hermite",
-                              "clamped-pinned", "fit-params"])
+                              "clamped-pinned", "fit-params", "creased-hermite",
+                              "creased-chords"])
 def test_exported_solve_structure_is_the_traced_one(monkeypatch, scheme, options):
     """The exported solve returns leaves only; the structure they are put back into is
     built by hand (`_core.solved_structure`). It must be the structure `solve_one`

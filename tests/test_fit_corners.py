@@ -10,6 +10,7 @@ found.
 from pathlib import Path
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -309,6 +310,51 @@ def test_star_corners_are_exact_points_of_the_fitted_curve():
     # Every sample on the curve.
     assert float(result.rms_target_to_curve) < 1e-6 * size
     assert distance_to_curve(V, np.asarray(smooth.curve)).max() > 1e-3 * size
+
+
+def test_feet_on_a_creased_hermite_curve_are_its_nearest_points():
+    """The creased cubic B-spline modelled as the fit models it (exact limit samples,
+    Hermite segments with one-sided tangents at the creases: the exact curve, piecewise
+    cubic with knots at the samples) and the global nearest point on it
+    (`_curve.nearest_on_curve`): each point's distance is at least its distance to the
+    curve refined 12 levels (brute force; chords 2^-12 of a span) and at most that
+    plus the documented bound, twice the largest distance of a segment from its chord
+    (4/27 of its tangents' differences from the chord, where two branches nearly tie;
+    equal on most points), and points just outside a corner have their foot exactly
+    at that corner's sample (where Newton's method alone only approaches it)."""
+    from fitting import _curve
+
+    P = star()
+    n, levels = len(P), 4
+    creases = np.zeros(n, bool)
+    creases[::2] = True  # the tips
+    position, tangents = _curve.creased_tables(js.CubicBSpline(), n, levels, creases,
+                                               np.float64, True)
+    X = position.apply(P)
+    V = tuple(t.apply(P) for t in tangents)
+    rng = np.random.default_rng(0)
+    tips = P[::2] * 1.05  # in the normal cones of the tips
+    points = np.concatenate([rng.uniform(-1.1, 1.1, (300, 2)), tips])
+    tau = _curve.nearest_on_curve(jnp.asarray(points), X, V, True)
+    (foot,) = _curve.evaluate(X, V, tau, True, order=0)
+    dense = np.asarray(js.limit_curve(P, js.CubicBSpline(), 12, creases=creases))
+    want = distance_to_curve(points, dense)
+    got = np.linalg.norm(np.asarray(foot) - points, axis=1)
+    chord = np.roll(np.asarray(X), -1, axis=0) - np.asarray(X)
+    after, before = (np.asarray(v) for v in V)
+    bound = 2 * 4 / 27 * np.max(np.linalg.norm(after - chord, axis=1)
+                                + np.linalg.norm(np.roll(before, -1, axis=0) - chord, axis=1))
+    sagitta = 1e-7  # of the dense chords (spans up to 0.6 long, curvature up to ~10)
+    assert np.all(got >= want - sagitta) and np.all(got <= want + bound)
+    assert np.mean(np.abs(got - want) < sagitta) > 0.8
+    corner_samples = np.flatnonzero(creases) * 2**levels
+    np.testing.assert_array_equal(np.asarray(tau)[-len(tips):], corner_samples)
+    # Tracked from nearby positions on either side (as the solver's steps track feet),
+    # Newton's steps alone cross the corner back and forth; they end at it.
+    previous = np.concatenate([corner_samples - 0.4, corner_samples + 0.3]).astype(float)
+    tracked = _curve.locate(jnp.asarray(np.concatenate([tips, tips])), X, V, True, 4,
+                            previous=jnp.asarray(previous))
+    np.testing.assert_array_equal(np.asarray(tracked), np.concatenate([corner_samples] * 2))
 
 
 @pytest.mark.parametrize("m, phase", [(200, 0.013), (200, 0.37), (400, 0.2)])
