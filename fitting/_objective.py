@@ -31,7 +31,6 @@ import numpy as np
 from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, ArrayLike, Float, Int
 
-import jaxsubdiv as js
 from jaxsubdiv import AbstractCurveScheme
 
 from ._curve import (

@@ -1052,7 +1052,7 @@ def _pillow(m=120):
     out = []
     for k in range(4):
         a, b = corners[k], corners[(k + 1) % 4]
-        middle, normal = (a + b) / 2, (a + b) / 2 / np.linalg.norm((a + b) / 2)
+        normal = (a + b) / np.linalg.norm(a + b)
         out.append(a + t[:, None] * (b - a) + 0.25 * np.sin(np.pi * t)[:, None] * normal)
     samples = np.concatenate(out)
     # The corner samples a little outside the corners, where the curve's corner point
