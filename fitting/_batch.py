@@ -449,8 +449,7 @@ def fit_batch(
     # One sample-count bucket for the whole batch: every item padded to it.
     size = bucket(max(t.shape[0] for t, _, _ in prepared))
     creased = any(c is not None for _, _, c in prepared)
-    # A creased curve is modelled as in `fit`: Hermite segments where its pieces' ends
-    # have exact tangents.
+    # A creased curve is modelled as in `fit` (`uses_tangents(..., creased=True)`).
     hermite = uses_tangents(scheme, names, boundary, creased=creased)
     if levels is None:
         levels = default_levels(n, size, hermite)

@@ -132,8 +132,10 @@ def fit(
       remainders, so the same wherever the samples start), and the creases
       sit at the corner samples' control points at the start; the solver then moves
       every control point, corners included. `result.creases` marks them. The curve is
-      modelled by chords (default `levels` as for non-C1 schemes); the creases are
-      data, so fits with other corners reuse the compiled program. Closed curves of
+      modelled by chords (default `levels` as for non-C1 schemes; Hermite segments
+      with one-sided tangents at the creases exist, measured but not yet the default:
+      `docs/fitting.md`, "Corners"); the creases are data, so fits with other corners
+      reuse the compiled program. Closed curves of
       primal schemes (CubicBSpline, FourPoint, SplitTweak, Jarek); at most `n_control`
       corners (`"auto"` keeps the strongest). No corners found: the smooth fit. See
       `docs/fitting.md`, "Corners".

@@ -230,7 +230,7 @@ class Objective(eqx.Module):
     # Open and clamped curves with pinned ends (`control`): the two control points
     # solved from the end constraints, else (). Chosen on the host (`end_pivots`).
     pivots: tuple[int, ...] = eqx.field(static=True, default=())
-    # Closed curves with corners: creased control points (`FitData.creases`), by chords.
+    # Closed curves with corners: creased control points (`FitData.creases`).
     corners: bool = eqx.field(static=True, default=False)
 
     @property

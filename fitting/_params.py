@@ -84,6 +84,16 @@ def from_unconstrained(scheme, names, raw: dict):
     return scheme.from_unconstrained(names, raw)
 
 
+#: Whether a creased closed curve of a scheme whose clamped ends have tangents is
+#: modelled by Hermite segments (exact one-sided tangents at the creases) instead of
+#: chords. Measured, not yet the default (2026-12-06, `benchmarks/results/
+#: fit_corner_model.md`): 0.35-0.56 of the time on traced 1024-px glyphs, but at the
+#: C^1 default levels with 16 samples per span (n = 64 on 400 samples) fits took
+#: 3-5x the steps, and matplotlib's hand icon ran to `max_steps` at 5 levels where
+#: chords at 6 converged. `benchmarks/bench_fit_corner_model.py` switches it.
+CREASED_HERMITE = False
+
+
 def uses_tangents(scheme, names, boundary, creased: bool = False) -> bool:
     """Whether the fit can use the scheme's exact limit tangents (a C1 Hermite curve).
 
@@ -97,8 +107,11 @@ def uses_tangents(scheme, names, boundary, creased: bool = False) -> bool:
     concrete scheme is checked with `jaxsubdiv.smoothness`. Clamped ends need a tangent
     rule there ([`jaxsubdiv.supports_clamped_derivatives`][]: the primal schemes whose
     clamped rule reflects the polygon; not the four-point scheme or dual ones), and so
-    do the corners of a `creased` closed curve, whose pieces are clamped curves.
+    do the corners of a `creased` closed curve, whose pieces are clamped curves: that
+    model is used only with `CREASED_HERMITE` (not yet the default).
     """
+    if creased and not CREASED_HERMITE:
+        return False
     if (boundary == "clamped" or creased) and not js.supports_clamped_derivatives(scheme):
         return False
     try:

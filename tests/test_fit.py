@@ -1063,15 +1063,18 @@ def _pillow(m=120):
 
 @pytest.mark.parametrize("scheme, hermite", [(js.CubicBSpline(), True), (js.FourPoint(0.06), False)],
                          ids=["hermite", "chords"])
-def test_creased_model_matches_finite_differences_of_its_loss(scheme, hermite):
+def test_creased_model_matches_finite_differences_of_its_loss(monkeypatch, scheme, hermite):
     """With corners, the creased curve's model (Hermite segments with one-sided tangents
-    at the creases for the cubic B-spline, chords for the four-point scheme, whose
-    clamped ends have no tangent rule) against central finite differences of the loss
-    with the feet found afresh, near the fit's optimum; the fit picks that model."""
+    at the creases for the cubic B-spline, with `CREASED_HERMITE` on; chords for the
+    four-point scheme, whose clamped ends have no tangent rule) against central finite
+    differences of the loss with the feet found afresh, near the fit's optimum; the fit
+    picks that model."""
+    from fitting import _params
     from fitting._checks import default_levels
     from fitting._init import corner_creases
     from fitting._objective import FitData, Objective
 
+    monkeypatch.setattr(_params, "CREASED_HERMITE", True)
     samples, at = _pillow()
     m, n = samples.shape[0], 16
     flags = np.zeros(m, bool)
@@ -1684,8 +1687,9 @@ def test_exported_solve_structure_is_the_traced_one(monkeypatch, scheme, options
     returns (traced with `eqx.filter_eval_shape`, nothing compiled) in every configuration,
     or arrays would land in the wrong fields."""
     import fitting._fit as fit_module
-    from fitting import _core
+    from fitting import _core, _params
 
+    monkeypatch.setattr(_params, "CREASED_HERMITE", True)  # the creased Hermite case
     seen = {}
 
     def capture(data, init, tol, max_steps, *, objective, solver=None, progress=False):
