@@ -1005,6 +1005,20 @@ def test_gradient_with_respect_to_scheme_parameters():
     assert_matches_finite_difference(float(np.sum(grad * e)), fitted_w, samples, e)
 
 
+def _assert_model_matches_finite_differences(objective, args, P, direction):
+    """The model's half gradient and half Hessian at `P` (fixed scheme) along `direction`
+    against central finite differences (h = 1e-5) of its loss, the feet found afresh."""
+    model = jax.jit(lambda P: objective.quadratic_model({"control": P, "params": {}}, args))
+    loss = lambda P: float(model(P)[0])
+    _, gradient, hessian = model(P)
+    v = np.asarray(direction).reshape(-1)
+    h = 1e-5
+    slope = (loss(P + h * direction) - loss(P - h * direction)) / (2 * h)
+    curvature = (loss(P + h * direction) - 2 * loss(P) + loss(P - h * direction)) / h**2
+    np.testing.assert_allclose(2 * float(gradient @ v), slope, rtol=1e-4)
+    np.testing.assert_allclose(2 * float(v @ hessian @ v), curvature, rtol=2e-2)
+
+
 @pytest.mark.parametrize("n, boundary", [(8, "closed"), (24, "closed")])
 @pytest.mark.parametrize("scheme, hermite", [(js.CubicBSpline(), True), (js.Chaikin(), False)],
                          ids=["hermite", "chords"])
@@ -1032,15 +1046,7 @@ def test_model_matches_finite_differences_of_its_loss(scheme, hermite, n, bounda
     # Near (not at) the optimum, where the model must hold.
     direction = jnp.asarray(np.random.default_rng(n).standard_normal((n, 2)))
     P = (fit.control_points - samples.mean(0)) + 0.01 * direction
-    model = jax.jit(lambda P: objective.quadratic_model({"control": P, "params": {}}, args))
-    loss = lambda P: float(model(P)[0])
-    _, gradient, hessian = model(P)
-    v = np.asarray(direction).reshape(-1)
-    h = 1e-5
-    slope = (loss(P + h * direction) - loss(P - h * direction)) / (2 * h)
-    curvature = (loss(P + h * direction) - 2 * loss(P) + loss(P - h * direction)) / h**2
-    np.testing.assert_allclose(2 * float(gradient @ v), slope, rtol=1e-4)
-    np.testing.assert_allclose(2 * float(v @ hessian @ v), curvature, rtol=2e-2)
+    _assert_model_matches_finite_differences(objective, args, P, direction)
 
 
 def _pillow(m=120):
@@ -1097,15 +1103,7 @@ def test_creased_model_matches_finite_differences_of_its_loss(monkeypatch, schem
     assert (args.basis[1] is not None) == hermite
     direction = jnp.asarray(np.random.default_rng(4).standard_normal((n, 2)))
     P = fit.control_points + 0.01 * direction
-    model = jax.jit(lambda P: objective.quadratic_model({"control": P, "params": {}}, args))
-    loss = lambda P: float(model(P)[0])
-    _, gradient, hessian = model(P)
-    v = np.asarray(direction).reshape(-1)
-    h = 1e-5
-    slope = (loss(P + h * direction) - loss(P - h * direction)) / (2 * h)
-    curvature = (loss(P + h * direction) - 2 * loss(P) + loss(P - h * direction)) / h**2
-    np.testing.assert_allclose(2 * float(gradient @ v), slope, rtol=1e-4)
-    np.testing.assert_allclose(2 * float(v @ hessian @ v), curvature, rtol=2e-2)
+    _assert_model_matches_finite_differences(objective, args, P, direction)
 
 
 #: Schemes with parameters, the fitted names and whether their fit uses the Hermite model.
