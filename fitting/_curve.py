@@ -601,9 +601,14 @@ def curve_tables(
     if not tangents:
         return position, None
     tangent = js.curve_stencil(scheme, n, levels, boundary=boundary, derivative=1, dtype=dtype)
-    # `curve_stencil` differentiates with respect to the control points' parameter;
-    # the fit's positions count samples, 2^levels of them per control point.
-    return position, eqx.tree_at(lambda t: t.weights, tangent, tangent.weights / 2**levels)
+    return position, _per_sample(tangent, levels)
+
+
+def _per_sample(tangent: js.CurveStencil, levels: int) -> js.CurveStencil:
+    """A tangent table in units of curve samples: `curve_stencil` differentiates with
+    respect to the control points' parameter, and the fit's positions count samples,
+    2^levels of them per control point."""
+    return eqx.tree_at(lambda t: t.weights, tangent, tangent.weights / 2**levels)
 
 
 def creased_tables(
@@ -616,10 +621,9 @@ def creased_tables(
     position = js.curve_stencil(scheme, n, levels, creases=creases, dtype=dtype)
     if not tangents:
         return position, None
-    per_sample = lambda t: eqx.tree_at(lambda t: t.weights, t, t.weights / 2**levels)
     return position, tuple(
-        per_sample(js.curve_stencil(scheme, n, levels, derivative=1, creases=creases,
-                                    side=side, dtype=dtype))
+        _per_sample(js.curve_stencil(scheme, n, levels, derivative=1, creases=creases,
+                                     side=side, dtype=dtype), levels)
         for side in ("right", "left"))
 
 
