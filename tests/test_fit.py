@@ -419,19 +419,24 @@ def test_sharded_batch_equals_unsharded():
         assert np.all(np.asarray(c.converged))
         # optimistix's solvers keep a vmap over the devices (lineax rejects shard_map's
         # arrays): they run on both devices and agree with one device where they
-        # converge (Gauss-Newton crawls on the third outline: 200 steps on both).
+        # converge. Gauss-Newton crawls on the third outline: at XLA's default
+        # optimisation 200 steps on both (max_steps reached), at level 0 it converged in
+        # 194 and 137 steps to the same RMS (2026-12-06): which is a matter of rounding.
         d, e = (fitting.fit_batch(targets, js.CubicBSpline(), 8, solver="gauss-newton",
                                   devices=devices, on_failure="ignore")
                 for devices in (jax.devices(), jax.devices()[:1]))
-        assert list(np.asarray(d.status)) == list(np.asarray(e.status)) == [0, 0, 7]
-        np.testing.assert_allclose(np.asarray(d.rms)[:2], np.asarray(e.rms)[:2], rtol=1e-9)
+        statuses = [list(np.asarray(r.status)) for r in (d, e)]
+        assert all(s[:2] == [0, 0] and s[2] in (0, 7) for s in statuses), statuses
+        both = (np.asarray(d.status) == 0) & (np.asarray(e.status) == 0)
+        np.testing.assert_allclose(np.asarray(d.rms)[both], np.asarray(e.rms)[both], rtol=1e-9)
         for i in range(3):
             ca, cb = np.asarray(a.control_points[i]), np.asarray(b.control_points[i])
             print(float(np.abs(ca - cb).max()), float(abs(float(a.rms[i]) / float(b.rms[i]) - 1)),
                   max(float(a.newton_step[i]), float(b.newton_step[i])))
         """
     )
-    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2")
+    flags = os.environ.get("XLA_FLAGS", "")  # the suite's (conftest.py), plus 2 devices
+    env = dict(os.environ, XLA_FLAGS=f"{flags} --xla_force_host_platform_device_count=2")
     out = subprocess.run(
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600
     )
@@ -509,7 +514,9 @@ def test_batch_across_two_processes_equals_one_process(tmp_path):
     batch[2][5] = np.nan
     inputs = tmp_path / "batch.npz"
     np.savez(inputs, targets=np.array(batch, dtype=object))
-    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}  # one device each
+    # One device each; the suite's other flags kept (the same compiled programs as here).
+    env = dict(os.environ, XLA_FLAGS=" ".join(
+        flag for flag in os.environ.get("XLA_FLAGS", "").split() if "device_count" not in flag))
     env["JAX_PLATFORMS"] = "cpu"
     for attempt in range(3):  # a port found free may be taken before the coordinator binds it
         with socket.socket() as free:
@@ -879,10 +886,14 @@ def test_gradient_with_respect_to_target(scheme):
 
     grad = np.asarray(jax.grad(loss)(samples))
     rng = np.random.default_rng(11)
-    # The cubic B-spline's fit stops 4e-7 from its optimum along a flat direction
-    # (`newton_step`), which blurs differences at small steps: 1e-3 and 2e-3 relative.
+    # The cubic B-spline's fit stops 1e-7 to 3e-7 from its optimum along a flat
+    # direction (`newton_step`), differently with the rounding of each compilation, which
+    # blurs differences at small steps (measured at 1e-3: up to 3e-3 relative, noise
+    # growing as 1/h) while at 1e-2 their truncation error is 1.3e-3: at 5e-3 the three
+    # probes are within 6e-4, at both XLA optimisation levels (2026-12-06).
     # (The curve-to-target band held constant once gave 0.10 here against -1.03.)
-    steps, rtol = ((1e-3, 1e-4, 1e-5), 1e-3) if isinstance(scheme, js.FourPoint) else ((1e-3,), 2e-3)
+    steps = (1e-3, 1e-4, 1e-5) if isinstance(scheme, js.FourPoint) else (5e-3,)
+    rtol = 1e-3
     for k in rng.choice(60, 3, replace=False):
         e = np.zeros((60, 2))
         e[k] = rng.standard_normal(2)
