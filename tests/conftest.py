@@ -18,17 +18,59 @@ if _O0 not in os.environ.get("XLA_FLAGS", ""):
 import jax  # noqa: E402
 import pytest  # noqa: E402
 
+import fitting._exported  # noqa: E402
+
 
 # Tests run in float64; float32 is tested explicitly where it matters.
 jax.config.update("jax_enable_x64", True)
 # No display is needed anywhere in the test suite.
 os.environ.setdefault("MPLBACKEND", "Agg")
-# The `jaxsubdiv` command keeps compiled programs in a persistent cache: in the tests, a
-# fresh folder of this run's own (never the user's cache, whose contents would make
-# results and timings depend on earlier runs), shared by the command's subprocesses.
-_CACHE = tempfile.mkdtemp(prefix="jaxsubdiv-test-cache-")
-atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
-os.environ["JAXSUBDIV_COMPILATION_CACHE"] = _CACHE
+# A fresh folder of this run's own for compiled programs (never the user's cache, whose
+# contents would make results and timings depend on earlier runs). Made by the process
+# that loads this file first, which removes it at exit; pytest-xdist's workers, started
+# by it, inherit its name through the environment and share it.
+_RUN_FOLDER = "JAXSUBDIV_TEST_RUN_FOLDER"
+if not os.environ.get(_RUN_FOLDER):
+    os.environ[_RUN_FOLDER] = tempfile.mkdtemp(prefix="jaxsubdiv-test-run-")
+    atexit.register(shutil.rmtree, os.environ[_RUN_FOLDER], ignore_errors=True)
+# The `jaxsubdiv` command keeps compiled programs in a persistent cache: in the tests,
+# one in the run's folder, shared by the command's subprocesses.
+os.environ["JAXSUBDIV_COMPILATION_CACHE"] = os.path.join(os.environ[_RUN_FOLDER], "command")
+# The tests' own programs go to JAX's persistent cache in the run's folder too, so that
+# a program one worker compiled is loaded, not compiled again, by the other (the same
+# fits recur across test files; measured 2026-12-06 with `-n auto` on 2 cores: 51
+# programs loaded, 165 s of the workers' 1835 s of compiling saved). Only programs that
+# took over half a second to compile (fits, not single operations); the size limit
+# makes JAX lock the folder, so that a worker never reads a program another is still
+# writing.
+_XLA_CACHE = os.path.join(os.environ[_RUN_FOLDER], "xla")
+_XLA_CACHE_SETTINGS = {"jax_compilation_cache_dir": _XLA_CACHE,
+                       "jax_persistent_cache_min_compile_time_secs": 0.5,
+                       "jax_compilation_cache_max_size": 2**34}
+for _name, _value in _XLA_CACHE_SETTINGS.items():
+    jax.config.update(_name, _value)
+
+
+@pytest.fixture
+def suite_cache_environment() -> dict[str, str]:
+    """Environment variables that give a Python subprocess the suite's persistent cache
+    (JAX reads its settings from them), for tests whose subprocesses compile the
+    programs the test compiles too."""
+    return {name.upper(): str(value) for name, value in _XLA_CACHE_SETTINGS.items()}
+
+
+def _exported_folder():
+    """`fitting._exported.folder`, but None for the suite's cache: with a persistent
+    cache on, `fitting.fit` runs its programs exported to disk (`fitting._exported`);
+    the suite's cache is not a request for that. The tests of exported programs point
+    JAX at a folder of their own, and get them."""
+    if jax.config.jax_compilation_cache_dir == _XLA_CACHE:
+        return None
+    return _library_exported_folder()
+
+
+_library_exported_folder = fitting._exported.folder
+fitting._exported.folder = _exported_folder
 
 
 def _mappings() -> int:
@@ -61,7 +103,7 @@ _EVENTS = {
     "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower",
     "/jax/core/compile/backend_compile_duration": "compile",
 }
-_TOTALS = {"count": 0, "trace": 0.0, "lower": 0.0, "compile": 0.0}
+_TOTALS = {"count": 0, "hits": 0, "trace": 0.0, "lower": 0.0, "compile": 0.0}
 _PER_TEST: dict[str, dict[str, float]] = {}
 
 
@@ -74,7 +116,13 @@ def _record_event(event, seconds, **_):
         _TOTALS["count"] += 1
 
 
+def _record_hit(event, **_):
+    if event == "/jax/compilation_cache/cache_hits":
+        _TOTALS["hits"] += 1
+
+
 jax.monitoring.register_event_duration_secs_listener(_record_event)
+jax.monitoring.register_event_listener(_record_hit)
 
 
 @pytest.fixture(autouse=True)
@@ -86,7 +134,8 @@ def _compilation_time_per_test(request):
 
 def pytest_terminal_summary(terminalreporter):
     terminalreporter.write_line(
-        f"XLA compilations in this process: {_TOTALS['count']} "
+        f"XLA compilations in this process: {_TOTALS['count']}, "
+        f"{_TOTALS['hits']} of them loaded from the persistent cache "
         f"({_TOTALS['compile']:.0f} s compiling, {_TOTALS['trace']:.0f} s tracing, "
         f"{_TOTALS['lower']:.0f} s lowering; nested traces count in each enclosing one)"
     )
@@ -99,3 +148,4 @@ def pytest_terminal_summary(terminalreporter):
             terminalreporter.write_line(
                 f"  {cost((nodeid, spent)):6.1f} s  {int(spent['count']):4d} programs  {nodeid}"
             )
+

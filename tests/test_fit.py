@@ -501,7 +501,7 @@ _TWO_PROCESSES = textwrap.dedent(
 )
 
 
-def test_batch_across_two_processes_equals_one_process(tmp_path):
+def test_batch_across_two_processes_equals_one_process(tmp_path, suite_cache_environment):
     """#16: two CPU processes joined by `jax.distributed` (a local coordinator) fit one
     batch, each its share, and both return the whole batch: the same numbers as one
     process (the same compiled program per item on one machine: equal bits), per-item
@@ -514,8 +514,9 @@ def test_batch_across_two_processes_equals_one_process(tmp_path):
     batch[2][5] = np.nan
     inputs = tmp_path / "batch.npz"
     np.savez(inputs, targets=np.array(batch, dtype=object))
-    # One device each; the suite's other flags kept (the same compiled programs as here).
-    env = dict(os.environ, XLA_FLAGS=" ".join(
+    # One device each; the suite's other flags kept (the same compiled programs as here,
+    # which this process then loads from the suite's cache).
+    env = dict(os.environ, **suite_cache_environment, XLA_FLAGS=" ".join(
         flag for flag in os.environ.get("XLA_FLAGS", "").split() if "device_count" not in flag))
     env["JAX_PLATFORMS"] = "cpu"
     for attempt in range(3):  # a port found free may be taken before the coordinator binds it
