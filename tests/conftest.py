@@ -148,4 +148,3 @@ def pytest_terminal_summary(terminalreporter):
             terminalreporter.write_line(
                 f"  {cost((nodeid, spent)):6.1f} s  {int(spent['count']):4d} programs  {nodeid}"
             )
-
