@@ -39,7 +39,8 @@ os.environ["JAXSUBDIV_COMPILATION_CACHE"] = os.path.join(os.environ[_RUN_FOLDER]
 # The tests' own programs go to JAX's persistent cache in the run's folder too, so that
 # a program one worker compiled is loaded, not compiled again, by the other (the same
 # fits recur across test files; measured 2026-12-06 with `-n auto` on 2 cores: 51
-# programs loaded, 165 s of the workers' 1835 s of compiling saved). Only programs that
+# programs loaded, 165 s of the workers' 1835 s of compiling saved by JAX's estimate;
+# five fitting test files ran in 0.89x the wall time with it, back to back). Only programs that
 # took over half a second to compile (fits, not single operations); the size limit
 # makes JAX lock the folder, so that a worker never reads a program another is still
 # writing.
