@@ -40,10 +40,10 @@ os.environ["JAXSUBDIV_COMPILATION_CACHE"] = os.path.join(os.environ[_RUN_FOLDER]
 # a program one worker compiled is loaded, not compiled again, by the other (the same
 # fits recur across test files; measured 2026-12-06 with `-n auto` on 2 cores: 51
 # programs loaded, 165 s of the workers' 1835 s of compiling saved by JAX's estimate;
-# five fitting test files ran in 0.89x the wall time with it, back to back). Only programs that
-# took over half a second to compile (fits, not single operations); the size limit
-# makes JAX lock the folder, so that a worker never reads a program another is still
-# writing.
+# five fitting test files ran in 0.89x the wall time with it, back to back). Only
+# programs that took over half a second to compile are written (fits, not single
+# operations); the size limit makes JAX lock the folder, so that a worker never reads a
+# program another is still writing.
 _XLA_CACHE = os.path.join(os.environ[_RUN_FOLDER], "xla")
 _XLA_CACHE_SETTINGS = {"jax_compilation_cache_dir": _XLA_CACHE,
                        "jax_persistent_cache_min_compile_time_secs": 0.5,
