@@ -25,7 +25,7 @@ that was most of the time (compare the versions). Measured:
   `_curve.BLOCK_PAIRS` pairs each, in the two shapes the glyph's fit and its error
   measurement use: 1,456 points x 2,880 anchors and 5,461 x 768): the nearest anchor
   by one `jnp.argmin` over the points x anchors array against
-  `_curve._nearest_anchor`'s two levels; and a simplified certificate test (a masked
+  `_curve._grouped_nearest_anchor`'s two levels; and a simplified certificate test (a masked
   `jnp.any`, without the square roots of the code before) against
   `_curve._smallest_outside`. Isolated like this the gain is smaller, and varies more
   from run to run, than inside the fits.
@@ -173,7 +173,7 @@ def searches(repeats: int) -> list:
         anchors = jnp.asarray(rng.standard_normal((k, 2)))
         one = median_ms(lambda p, a: jnp.argmin(_curve._anchor_distance2(p, a), axis=1),
                         points, anchors)
-        two = median_ms(lambda p, a: _curve._nearest_anchor(p, a)[0], points, anchors)
+        two = median_ms(lambda p, a: _curve._grouped_nearest_anchor(p, a)[0], points, anchors)
         rows.append(dict(search="nearest anchor", points=m, anchors=k, one_pass_ms=one,
                          two_level_ms=two))
         rows3 = jnp.asarray(rng.standard_normal((m, 3)))

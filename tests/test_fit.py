@@ -723,6 +723,32 @@ def test_nearest_anchor_is_the_nearest_by_brute_force(m, k, repeated, search_lev
     assert tied.size == 0, "a repeated anchor won over its first copy"
 
 
+def test_pruned_nearest_anchor_certifies_only_the_nearest():
+    """The pruned search (`_curve._pruned_nearest_anchor`, the nearest of groups by a
+    lower bound on their balls, then three groups searched exactly) on anchors along a
+    glyph outline, as a fit's curve gives them: every answer it calls certain is at the
+    brute-force least distance; samples of the outline are nearly all certain, points
+    far off it not all; and `_nearest_anchor`, which sends the uncertain ones to the
+    two-level search, is exact for all."""
+    anchors = glyph_outline("S", 1024)  # 32 groups
+    rng = np.random.default_rng(8)
+    size = np.linalg.norm(np.ptp(anchors, axis=0))
+    on = glyph_outline("S", 3000) + 1e-3 * size * rng.standard_normal((3000, 2))
+    off = anchors[rng.integers(0, 1024, 600)] + 0.1 * size * rng.standard_normal((600, 2))
+    points = np.concatenate([on, off])
+    exact = np.sum((points[:, None, :] - anchors[None]) ** 2, -1).min(1)
+    tolerance = 1e-12 * np.max(np.sum(points**2, -1))
+    P, A = jnp.asarray(points), jnp.asarray(anchors)
+    index, least, certain = map(np.asarray, _curve._pruned_nearest_anchor(P, A))
+    at = np.sum((points - anchors[index]) ** 2, -1)
+    assert np.all(at[certain] <= exact[certain] + tolerance), "certain but not the nearest"
+    np.testing.assert_allclose(least[certain] + np.sum(points[certain] ** 2, -1), at[certain],
+                               atol=tolerance)
+    assert np.mean(certain[:3000]) > 0.95 and not np.all(certain[3000:])
+    index, least = map(np.asarray, _curve._nearest_anchor(P, A))
+    np.testing.assert_allclose(np.sum((points - anchors[index]) ** 2, -1), exact, atol=tolerance)
+
+
 @pytest.mark.parametrize("m, k, excluded", [(40, 10, 2), (300, 250, 2), (100, 64, 5)])
 def test_smallest_outside_matches_a_masked_minimum(m, k, excluded):
     """`_smallest_outside` (the certificate's least value over the columns not
