@@ -589,8 +589,12 @@ def _executions(monkeypatch, module, name):
 @pytest.fixture(params=["one pass", "two levels"])
 def search_levels(request, monkeypatch):
     """The nearest-anchor search and the certificate both ways: one pass over all
-    pairs (small searches), and in two levels (`_curve.TWO_LEVELS_FROM` anchors on)."""
-    monkeypatch.setattr(_curve, "TWO_LEVELS_FROM", 10**9 if request.param == "one pass" else 1)
+    pairs (small searches), and in two levels (`_curve.TWO_LEVELS_FROM` anchors on) with
+    the nearest anchor by pruning (`_curve.PRUNED_FROM`), whose uncertain points (most,
+    on random anchors) take the two-level search."""
+    many = request.param != "one pass"
+    monkeypatch.setattr(_curve, "TWO_LEVELS_FROM", 1 if many else 10**9)
+    monkeypatch.setattr(_curve, "PRUNED_FROM", 1 if many else 10**9)
     return request.param
 
 
