@@ -112,11 +112,15 @@ ANCHOR_GROUP = 32
 #: processes, a side run not kept in the benchmark).
 TWO_LEVELS_FROM = 512
 
+#: Anchors per group in `_pruned_nearest_anchor`.
+PRUNE_GROUP = 32
+
 #: From this many anchors on, `_nearest_anchor` prunes groups by their bounding balls
-#: (`_pruned_nearest_anchor`); below it the two-level search is cheaper (points along a
-#: glyph's outline, anchors along the same outline: at 512 anchors 3.8 ms against 2.0 ms
-#: for 1,500 points and 15.7 against 8.8 ms for 6,000; at 1,024 anchors 2.3 against 2.8
-#: ms and 14.0 against 29.3 ms; measured 2026-12-06 in a side run, load about 2).
+#: (`_pruned_nearest_anchor`). Below it the groups of a glyph's outline are too long to
+#: be told apart (at 512 anchors along DejaVu Sans 'S', 58-59% of points near it were
+#: certified) and the two-level search is cheaper: 1.8 against 4.1 ms for 1,500 points,
+#: 6.4 against 13.2 ms for 6,000; at 1,024 anchors pruning took 2.5 against 2.7 ms and
+#: 10.4 against 23.0 ms, all certified (`benchmarks/results/nearest_anchor.md`).
 PRUNED_FROM = 1024
 
 
@@ -172,54 +176,55 @@ def _grouped_nearest_anchor(points, anchors):
 def _pruned_nearest_anchor(points, anchors):
     r"""`_nearest_anchor` by bounds on groups: `(index, distance2, certain)`.
 
-    The anchors go in groups of `ANCHOR_GROUP` consecutive ones, group $g$ inside the
+    The anchors go in groups of `PRUNE_GROUP` consecutive ones, group $g$ inside the
     ball of radius $r_g$ about its middle anchor $c_g$, so no anchor of $g$ is nearer
     to a point $p$ than $\ell_g = |p - c_g| - r_g$ (the triangle inequality). Each
     point searches exactly the anchors of the group of least $\ell_g$ and of its two
     neighbours along the curve, and the result is certain when every other group's
     bound is at least the distance found. One pass over points x groups instead of
     points x anchors: the global foot-point search of a traced 1024-px glyph's samples
-    (3,774-5,224 of them, about 4,000 anchors) took 10-13 ms against 52-105 ms with
-    `_grouped_nearest_anchor` alone, and its fits 0.38-0.60 of the time, with the same
-    steps (`benchmarks/results/fit_step.md` against `fit_step_2fe90b9.md`, back to back
-    on 2026-12-06). In a side run on four such images 99.8-100% of the samples were
-    certain, and 92-96% of points moved 20 px off the outline at random."""
+    (3,774-5,224 of them, about 4,000 anchors) took 13-19 ms against 69-90 ms with
+    `_grouped_nearest_anchor` alone (`benchmarks/results/fit_step.md` against
+    `fit_step_2fe90b9.md`, back to back on 2026-12-06). In a side run on four such
+    images 99.8-100% of the samples were certain, and 92-96% of points moved 20 px off
+    the outline at random.
+
+    Distances here are sums of squared differences, not matrix products: their
+    rounding is relative (a few eps of each distance), whatever the coordinates'
+    offset, and no backend's reduced-precision matrix product can enter the
+    certificate."""
     k, d = anchors.shape
-    group = ANCHOR_GROUP
+    group = PRUNE_GROUP
     padded = jnp.concatenate([anchors, jnp.repeat(anchors[-1:], -k % group, axis=0)])
     groups = padded.reshape(-1, group, d)
     count = groups.shape[0]
     centre = groups[:, group // 2]
-    # Rounding: the matrix-product distances err by a few eps |x|^2 (x the largest
-    # coordinate vector), so squared bounds are lowered and squared distances found
-    # raised by `slack`, and radii (direct differences) by a few eps |x|.
-    eps = jnp.finfo(points.dtype).eps
-    scale2 = jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(anchors**2, -1)))
-    slack = 16 * eps * scale2
-    radius = (jnp.sqrt(jnp.max(jnp.sum((groups - centre[:, None]) ** 2, -1), axis=1))
-              + 4 * eps * jnp.sqrt(scale2))
-    neighbours = jnp.arange(-1, 2)
+    radius = jnp.sqrt(jnp.max(jnp.sum((groups - centre[:, None]) ** 2, -1), axis=1))
+    # Relative rounding of each computed distance (a few eps for d <= 3); the bounds
+    # are lowered and the distances found raised by it, generously.
+    loose = 16 * (d + 2) * jnp.finfo(points.dtype).eps
 
     def block(p):
-        norm2 = jnp.sum(p**2, -1)
-        to_centre2 = _anchor_distance2(p, centre) + norm2[:, None]  # (m, groups)
-        lower = jnp.maximum(jnp.sqrt(jnp.maximum(to_centre2 - slack, 0.0)) - radius, 0.0)
-        near = (jnp.argmin(lower, axis=1)[:, None] + neighbours) % count  # (m, 3)
+        to_centre = jnp.sqrt(jnp.sum((p[:, None, :] - centre[None]) ** 2, -1))  # (m, groups)
+        lower = to_centre * (1 - loose) - radius * (1 + loose)  # may be negative
+        g = jnp.argmin(lower, axis=1)
+        near = (g[:, None] + jnp.arange(-1, 2)) % count
         # In increasing order, so that exact ties go to the first anchor, as elsewhere.
-        first, last = jnp.min(near, axis=1), jnp.max(near, axis=1)
-        near = jnp.stack([first, jnp.sum(near, axis=1) - first - last, last], axis=1)
+        near = jnp.sort(near, axis=1)
         members = groups[near].reshape(p.shape[0], -1, d)  # (m, 3 group, d)
-        within = jnp.sum(members**2, -1) - 2 * jnp.sum(p[:, None, :] * members, -1)
-        j = jnp.argmin(within, axis=1)
-        found2 = jnp.min(within, axis=1)
+        gap2 = jnp.sum((p[:, None, :] - members) ** 2, -1)
+        j = jnp.argmin(gap2, axis=1)
+        found2 = jnp.min(gap2, axis=1)
         index = jnp.take_along_axis(near, (j // group)[:, None], axis=1)[:, 0] * group + j % group
-        searched = jnp.any(jnp.arange(count)[None, :, None] == near[:, None, :], axis=2)
-        rest = jnp.min(jnp.where(searched, jnp.inf, lower), axis=1)
-        certain = found2 + norm2 + slack <= rest**2
-        # Padding copies the last anchor exactly.
-        return jnp.minimum(index, k - 1), found2, certain
+        offset = (jnp.arange(count)[None, :] - g[:, None]) % count
+        searched = (offset <= 1) | (offset == count - 1)
+        rest = jnp.min(jnp.where(searched, jnp.inf, jnp.maximum(lower, 0.0)), axis=1)
+        certain = found2 * (1 + loose) <= rest**2
+        # Padding copies the last anchor exactly; as the other searches, the squared
+        # distance less |p|^2.
+        return jnp.minimum(index, k - 1), found2 - jnp.sum(p**2, -1), certain
 
-    return _in_row_blocks(block, 3 * (count + group), points)
+    return _in_row_blocks(block, (count + 3 * group) * (d + 1), points)
 
 
 def _nearest_anchor_distance2(points, anchors):
