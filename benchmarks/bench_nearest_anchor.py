@@ -15,9 +15,7 @@ Writes `benchmarks/results/nearest_anchor.json` and `.md` (`--output` sets the J
 """
 
 import pathlib
-import statistics
 import sys
-import time
 
 
 sys.path.insert(0, str(pathlib.Path(__file__).parent))
@@ -26,15 +24,11 @@ import _common  # noqa: E402
 
 
 def median_ms(function, *args) -> float:
+    """Warm median of 31 calls, in ms (the first call, which compiles, not timed)."""
     import jax
 
     jax.block_until_ready(function(*args))
-    times = []
-    for _ in range(31):
-        start = time.perf_counter()
-        jax.block_until_ready(function(*args))
-        times.append(time.perf_counter() - start)
-    return 1e3 * statistics.median(times)
+    return 1e3 * _common.timed(lambda: function(*args), 31)[0]
 
 
 def measure(sizes) -> list[dict]:
@@ -49,13 +43,8 @@ def measure(sizes) -> list[dict]:
 
     grouped = jax.jit(_curve._grouped_nearest_anchor)
     pruned = jax.jit(_curve._pruned_nearest_anchor)
-
-    def forced(points, anchors):  # `_nearest_anchor` as it runs from `PRUNED_FROM` on
-        index, distance2, certain = _curve._pruned_nearest_anchor(points, anchors)
-        return _curve._redo(~certain, (index, distance2),
-                            lambda p: _curve._grouped_nearest_anchor(p, anchors), points)
-
-    forced = jax.jit(forced)
+    _curve.PRUNED_FROM = 1  # `_nearest_anchor` as it runs from `PRUNED_FROM` on, at any size
+    forced = jax.jit(_curve._nearest_anchor)
     rng = np.random.default_rng(0)
     rows = []
     for k, m in sizes:
