@@ -112,7 +112,8 @@ ANCHOR_GROUP = 32
 #: processes, a side run not kept in the benchmark).
 TWO_LEVELS_FROM = 512
 
-#: Anchors per group in `_pruned_nearest_anchor`.
+#: Anchors per group in `_pruned_nearest_anchor`, and groups of segments per block in
+#: `_pruned_unsure`.
 PRUNE_GROUP = 32
 
 #: From this many anchors on, `_nearest_anchor` prunes groups by their bounding balls
@@ -121,6 +122,7 @@ PRUNE_GROUP = 32
 #: certified) and the two-level search is cheaper: 1.8 against 4.1 ms for 1,500 points,
 #: 6.4 against 13.2 ms for 6,000; at 1,024 anchors pruning took 2.5 against 2.7 ms and
 #: 10.4 against 23.0 ms, all certified (`benchmarks/results/nearest_anchor.md`).
+#: `_unsure` prunes blocks of groups of segments from as many groups on.
 PRUNED_FROM = 1024
 
 
@@ -184,7 +186,7 @@ def _pruned_nearest_anchor(points, anchors):
     bound is at least the distance found. One pass over points x groups instead of
     points x anchors: the global foot-point search of a traced 1024-px glyph's samples
     (3,774-5,224 of them, about 4,000 anchors) took 13-19 ms against 69-90 ms with
-    `_grouped_nearest_anchor` alone (`benchmarks/results/fit_step.md` against
+    `_grouped_nearest_anchor` alone (`benchmarks/results/fit_step_cc4d111.md` against
     `fit_step_2fe90b9.md`, back to back on 2026-12-06). Points near a glyph's outline
     were all certain from 1,024 anchors along it on (`results/nearest_anchor.md`).
 
@@ -264,8 +266,9 @@ def _redo(flags, values, search, points):
     """`values` (arrays over the points) with those of the flagged points replaced by
     `search(their points)`, a pointwise search, `RECHECK` at a time (`lax.while_loop`),
     so that the cost is theirs, not every point's. When more than a quarter of the
-    points are flagged, all are searched anew, at once (`lax.cond`)."""
-    m = points.shape[0]
+    points are flagged, all are searched anew, at once (`lax.cond`). `points`: an array
+    over the points, or a tuple of them (what `search` takes)."""
+    m = flags.shape[0]
     size = min(m, RECHECK)
 
     def few(values):
@@ -275,7 +278,7 @@ def _redo(flags, values, search, points):
         def redo(carry):
             flags, values = carry
             index = jnp.nonzero(flags, size=size, fill_value=m)[0]  # m: none (dropped)
-            new = search(points[jnp.minimum(index, m - 1)])
+            new = search(jax.tree.map(lambda x: x[jnp.minimum(index, m - 1)], points))
             values = jax.tree.map(lambda v, n: v.at[index].set(n, mode="drop"), values, new)
             return flags.at[index].set(False, mode="drop"), values
 
@@ -565,7 +568,7 @@ def _clustered(points, curve, closed, coarse, chunk, count):
     midpoints) of a fit's curve against its outline's 6,144 samples (STIXGeneral 'S' at
     1024 px, n = 64), the passes over all pairs hold an eighth of the pairs, and 0.06%
     of the clusters were unsure: 131 ms against 440 ms point by point
-    (`benchmarks/results/fit_step.md`).
+    (`benchmarks/results/fit_step_2481955.md`).
     """
     m = points.shape[0]
     coarse, nearest, unsure = cluster_certificate(points, curve, closed, coarse, count)
@@ -605,7 +608,15 @@ def _found(points, curve, closed, segment, fraction):
 def _unsure(points, curve, closed, coarse, count, nearest, found):
     """Which points may have a point of the polyline nearer than `found` outside the
     groups of segments `_coarse_to_fine`'s window searched around their nearest coarse
-    vertex `nearest` (`nearest_on_polyline`'s certificate)."""
+    vertex `nearest` (`nearest_on_polyline`'s certificate).
+
+    Each group's ball against each point: in one pass, or in two levels from
+    `TWO_LEVELS_FROM` groups on (`_smallest_outside`). From `PRUNED_FROM` groups on,
+    blocks of groups are pruned first (`_pruned_unsure`), and only the points that
+    leaves undecided are checked against every group (`_redo`). For the samples of
+    traced 1024-px glyphs against their fitted curves (4,096-6,144 points, about 4,000
+    groups) the search and certificate took 0.38-0.46 of the time of the two-level pass
+    (`benchmarks/results/fit_step.md` against `fit_step_57dbbf1.md`, back to back)."""
     N = curve.shape[0]
     k = _anchors(curve, closed, coarse)[1].shape[0]
     # Group g: segments g*coarse ... g*coarse + coarse - 1, inside the ball about the
@@ -642,8 +653,67 @@ def _unsure(points, curve, closed, coarse, count, nearest, found):
     columns = jnp.concatenate([center, radius[:, None]], axis=1)
     norms = jnp.sum(center**2, -1) - radius**2
 
-    return _in_row_blocks(unsure_rows if k >= TWO_LEVELS_FROM else unsure_rows_one_pass, k,
-                          points, found, nearest)
+    def every_group(p, found, nearest):
+        return _in_row_blocks(unsure_rows if k >= TWO_LEVELS_FROM else unsure_rows_one_pass,
+                              k, p, found, nearest)
+
+    if k < PRUNED_FROM:
+        return every_group(points, found, nearest)
+    unsure, undecided = _pruned_unsure(points, found + margin, nearest, center, radius,
+                                       searched_groups, closed)
+    return _redo(undecided, unsure, lambda rows: every_group(*rows), (points, found, nearest))
+
+
+def _pruned_unsure(points, reach, nearest, center, radius, searched, closed):
+    r"""`_unsure` by bounds on groups of groups: `(unsure, undecided)`.
+
+    The certificate's groups of segments, group $g$ inside the ball of radius $r_g$
+    about $c_g$, go in blocks of `PRUNE_GROUP` consecutive groups, block $B$ inside the
+    ball about $C_B$ (the centre of its groups' centres' bounding box) of radius
+    $R_B = \max_{g \in B} |c_g - C_B| + r_g$. A point $p$ whose nearest coarse vertex
+    lies in block $B_0$ checks the groups of $B_0$ and its two neighbours one by one, as
+    `_unsure` does all of them ($|p - c_g| - r_g$ below `reach`, outside the groups
+    searched); every other block must lie beyond `reach` as a whole
+    ($|p - C_B| - R_B \ge$ `reach`), else the point is `undecided`, and `_unsure`
+    checks it against every group. One pass over points x blocks and 3 `PRUNE_GROUP`
+    groups instead of points x groups.
+
+    Distances are sums of squared differences (relative rounding, as in
+    `_pruned_nearest_anchor`): each distance to a ball's centre is lowered and each
+    radius raised by a few eps of it."""
+    k, d = center.shape
+    group = PRUNE_GROUP
+    pad = -k % group
+    # Padding groups have radius -inf: their bound is +inf, never below `reach`.
+    center = jnp.concatenate([center, jnp.repeat(center[-1:], pad, axis=0)])
+    radius = jnp.concatenate([radius, jnp.full((pad,), -jnp.inf, radius.dtype)])
+    loose = 16 * (d + 2) * jnp.finfo(points.dtype).eps
+    radius = radius * (1 + loose)
+    real = (radius > -jnp.inf).reshape(-1, group, 1)
+    members = center.reshape(-1, group, d)
+    blocks = members.shape[0]
+    block_center = 0.5 * (jnp.min(jnp.where(real, members, jnp.inf), axis=1)
+                          + jnp.max(jnp.where(real, members, -jnp.inf), axis=1))
+    spread = jnp.sqrt(jnp.sum((members - block_center[:, None]) ** 2, -1))
+    block_radius = jnp.max(spread * (1 + loose) + radius.reshape(-1, group), axis=1) * (1 + loose)
+
+    def rows(p, reach, nearest):
+        m = p.shape[0]
+        lower = (jnp.sqrt(jnp.sum((p[:, None, :] - block_center[None]) ** 2, -1)) * (1 - loose)
+                 - block_radius[None, :])  # (m, blocks)
+        own = nearest // group
+        offset = jnp.arange(blocks)[None, :] - own[:, None]
+        if closed:
+            offset = (offset + 1) % blocks - 1  # -1, 0, 1 for the neighbours along the curve
+        undecided = jnp.any((jnp.abs(offset) > 1) & (lower < reach[:, None]), axis=1)
+        near = own[:, None] + jnp.arange(-1, 2)[None, :]
+        near = near % blocks if closed else jnp.clip(near, 0, blocks - 1)  # repeats: harmless
+        g = (near[:, :, None] * group + jnp.arange(group)).reshape(m, -1)  # (m, 3 group)
+        to_group = jnp.sqrt(jnp.sum((p[:, None, :] - center[g]) ** 2, -1)) * (1 - loose)
+        unsure = jnp.any(~searched(nearest, g) & (to_group - radius[g] < reach[:, None]), axis=1)
+        return unsure, undecided
+
+    return _in_row_blocks(rows, blocks + 3 * group * (d + 1), points, reach, nearest)
 
 
 def distances(

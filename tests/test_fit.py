@@ -590,9 +590,10 @@ def _executions(monkeypatch, module, name):
 def search_levels(request, monkeypatch):
     """The nearest-anchor search and the certificate each way: one pass over all pairs
     (small searches); in two levels (`_curve.TWO_LEVELS_FROM` anchors on); and in two
-    levels with the nearest anchor by pruning (`_curve.PRUNED_FROM`), in groups of 4
-    anchors (`_curve.PRUNE_GROUP`) so that the tests' small outlines make many groups
-    (their uncertain points, most on random anchors, take the two-level search)."""
+    levels with the nearest anchor and the certificate by pruning (`_curve.PRUNED_FROM`),
+    in groups of 4 anchors and blocks of 4 groups of segments (`_curve.PRUNE_GROUP`) so
+    that the tests' small outlines make many of them (their uncertain points, most on
+    random anchors, take the two-level search and certificate)."""
     monkeypatch.setattr(_curve, "TWO_LEVELS_FROM", 10**9 if request.param == "one pass" else 1)
     if request.param == "pruned":
         monkeypatch.setattr(_curve, "PRUNED_FROM", 1)
@@ -759,6 +760,64 @@ def test_pruned_nearest_anchor_certifies_only_the_nearest(monkeypatch, k):
     np.testing.assert_allclose(np.sum((points - anchors[index]) ** 2, -1), exact, rtol=1e-13)
     np.testing.assert_allclose(least + np.sum(points**2, -1), exact, rtol=1e-10,
                                atol=1e-14 * size**2)
+
+
+def _segment_distances(points, a, b):
+    """Distances from every point to every segment [a_j, b_j], `(m, segments)`."""
+    ab = b - a
+    out = np.empty((len(points), len(a)))
+    for start in range(0, len(points), 256):
+        ap = points[start : start + 256, None, :] - a
+        u = np.clip((ap * ab).sum(-1) / np.maximum((ab**2).sum(-1), 1e-300), 0, 1)
+        out[start : start + 256] = np.sqrt(((ap - u[..., None] * ab) ** 2).sum(-1))
+    return out
+
+
+@pytest.mark.parametrize("closed", [True, False])
+def test_pruned_certificate_leaves_no_nearer_point_unchecked(closed):
+    """The certificate's pruned pass (`_curve._pruned_unsure`: blocks of 32 groups of
+    segments bounded by balls, the point's own block and its neighbours group by group),
+    given balls of the test's own that hold each group of 8 segments of a glyph's
+    outline, and each point's distance to the nearest point of the groups searched
+    around its nearest coarse vertex: no point it certifies (neither unsure nor
+    undecided) has a nearer point in another group, by brute force; points near the
+    outline are nearly all certified, and points far off it are left undecided (for the
+    check against every group) often enough that the bounds are seen to bite."""
+    coarse = 8
+    outline = glyph_outline("S", 8192)  # closed: 1,024 groups, 32 blocks
+    polyline = outline if closed else outline[:6401]  # open: 800 groups, 25 blocks
+    segments = len(polyline) if closed else len(polyline) - 1
+    a, b = polyline[:segments], np.roll(polyline, -1, axis=0)[:segments]
+    group_of = np.arange(segments) // coarse
+    k = group_of[-1] + 1
+    ends = [np.concatenate([a[group_of == g], b[group_of == g]]) for g in range(k)]
+    center = np.stack([e.mean(0) for e in ends])  # not the library's choice of centre
+    radius = np.array([np.sqrt(((e - c) ** 2).sum(-1).max()) for e, c in zip(ends, center)])
+    rng = np.random.default_rng(9)
+    size = np.linalg.norm(np.ptp(polyline, axis=0))
+    on = polyline[rng.integers(0, len(polyline), 3000)] + 1e-3 * size * rng.standard_normal((3000, 2))
+    off = polyline[rng.integers(0, len(polyline), 600)] + 0.1 * size * rng.standard_normal((600, 2))
+    points = np.concatenate([on, off])
+    anchors = polyline[::coarse]
+    nearest = np.argmin(((points[:, None, :] - anchors[None]) ** 2).sum(-1), axis=1)
+    before = (nearest - 1) % k if closed else nearest - 1
+    searched = (group_of[None, :] == nearest[:, None]) | (group_of[None, :] == before[:, None])
+    distance = _segment_distances(points, a, b)
+    found = np.where(searched, distance, np.inf).min(1)
+    elsewhere = np.where(searched, np.inf, distance).min(1)
+
+    def searched_groups(nearest, g):
+        nearest = nearest[:, None]
+        return (g == nearest) | (g == ((nearest - 1) % k if closed else nearest - 1))
+
+    unsure, undecided = map(np.asarray, _curve._pruned_unsure(
+        jnp.asarray(points), jnp.asarray(found), jnp.asarray(nearest), jnp.asarray(center),
+        jnp.asarray(radius), searched_groups, closed))
+    certified = ~unsure & ~undecided
+    assert np.all(elsewhere[certified] >= found[certified] * (1 - 1e-12)), \
+        "certified with a nearer point elsewhere"
+    assert np.mean(certified[:3000]) > 0.95
+    assert 0.1 < np.mean(undecided[3000:]) < 1
 
 
 @pytest.mark.parametrize("m, k, excluded", [(40, 10, 2), (300, 250, 2), (100, 64, 5)])
