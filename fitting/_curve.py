@@ -47,15 +47,21 @@ def _outline_position(segment, count):
 
 def _window_project(points, curve, closed, window, count=None):
     """Nearest point of each point's candidate segments `window` `(m, w)`, given as
-    positions along the outline (`_closed_segments`): (segment, fraction)."""
+    positions along the outline (`_closed_segments`): (segment, fraction).
+
+    Or clusters of points `(c, K, d)` that share their cluster's window `(c, w)`,
+    whose segments are then gathered once per cluster: (segment, fraction), each
+    `(c, K)`."""
     N = curve.shape[0]
     window = _closed_segments(window, N, count) if closed else jnp.clip(window, 0, N - 2)
     a, b = _segment_ends(curve, closed)
-    A, B = a[window], b[window]  # (m, w, d)
+    A, B = a[window], b[window]  # (m, w, d) or (c, w, d)
+    if points.ndim == 3:  # clusters: one window for the points of each
+        A, B, window = A[:, None], B[:, None], window[:, None]
     AB = B - A
     length2 = jnp.sum(AB**2, -1)
     safe = jnp.where(length2 > 0, length2, 1.0)
-    raw = jnp.where(length2 > 0, jnp.sum((points[:, None, :] - A) * AB, -1) / safe, 0.0)
+    raw = jnp.where(length2 > 0, jnp.sum((points[..., None, :] - A) * AB, -1) / safe, 0.0)
     u = jnp.clip(raw, 0.0, 1.0)
     # A foot at a vertex is that vertex exactly (not A + 1 * AB, which rounds), so the
     # two chords meeting there tie exactly; the tie goes to the chord the point lies
@@ -63,11 +69,12 @@ def _window_project(points, curve, closed, window, count=None):
     # chord chosen, and with it its band (`Objective._band`), depended on which way
     # the samples ran (a reversed serif 'g': curves 2.9e-4 of the size apart).
     foot = jnp.where((u == 1)[..., None], B, A + u[..., None] * AB)
-    square = jnp.sum((points[:, None, :] - foot) ** 2, -1)
+    square = jnp.sum((points[..., None, :] - foot) ** 2, -1)
     beyond = (jnp.maximum(raw - 1, 0.0) + jnp.maximum(-raw, 0.0)) * jnp.sqrt(length2)
-    nearest = square == jnp.min(square, axis=1, keepdims=True)
-    best = jnp.argmin(jnp.where(nearest, beyond, jnp.inf), axis=1)
-    pick = lambda x: jnp.take_along_axis(x, best[:, None], axis=1)[:, 0]
+    nearest = square == jnp.min(square, axis=-1, keepdims=True)
+    best = jnp.argmin(jnp.where(nearest, beyond, jnp.inf), axis=-1)
+    pick = lambda x: jnp.take_along_axis(jnp.broadcast_to(x, u.shape), best[..., None],
+                                         axis=-1)[..., 0]
     return pick(window), pick(u)
 
 
@@ -574,12 +581,22 @@ def _clustered(points, curve, closed, coarse, chunk, count):
     coarse, nearest, unsure = cluster_certificate(points, curve, closed, coarse, count)
     each = lambda x: jnp.repeat(x, CLUSTER, axis=0)[:m]
     offsets = jnp.arange(-coarse - 1, coarse + 1)  # `_coarse_to_fine`'s window
-    start = each(nearest) * coarse
+    start = nearest * coarse
     start = _outline_position(start, count) if closed else start
-    segment, fraction = _window_project(points, curve, closed,
+    # Each cluster's window gathered once for its points (the last cluster padded).
+    segment, fraction = _window_project(_clusters(points), curve, closed,
                                         start[:, None] + offsets[None, :], count)
+    segment, fraction = segment.reshape(-1)[:m], fraction.reshape(-1)[:m]
     return _redo(each(unsure), (segment, fraction),
                  lambda p: _pointwise(p, curve, closed, coarse, chunk, count), points)
+
+
+def _clusters(points):
+    """The points in clusters of `CLUSTER` consecutive ones, `(c, CLUSTER, d)`, the last
+    padded with copies of the last point."""
+    m, d = points.shape
+    padded = jnp.concatenate([points, jnp.repeat(points[-1:], -m % CLUSTER, axis=0)])
+    return padded.reshape(-1, CLUSTER, d)
 
 
 def cluster_certificate(points, curve, closed, coarse, count):
@@ -587,9 +604,7 @@ def cluster_certificate(points, curve, closed, coarse, count):
     cluster's nearest coarse vertex and whether the certificate at its center's distance
     plus twice its radius leaves it unsure (also what `benchmarks/bench_fit_step.py`
     counts)."""
-    m, d = points.shape
-    padded = jnp.concatenate([points, jnp.repeat(points[-1:], -m % CLUSTER, axis=0)])
-    members = padded.reshape(-1, CLUSTER, d)
+    members = _clusters(points)
     center = 0.5 * (jnp.min(members, axis=1) + jnp.max(members, axis=1))
     rho = jnp.sqrt(jnp.max(jnp.sum((members - center[:, None, :]) ** 2, -1), axis=1))
     coarse, _, nearest, segment, fraction = _coarse_to_fine(center, curve, closed, coarse, count)
