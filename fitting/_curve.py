@@ -23,6 +23,34 @@ def _segment_ends(curve, closed):
     return (curve if closed else curve[:-1]), nxt
 
 
+def _coordinates(x) -> list:
+    """The coordinates of points `x` `(..., d)` as `d` arrays `(...)`.
+
+    The searches below compute distances coordinate by coordinate, on arrays without a
+    trailing axis of size d: XLA on CPU (jax 0.10.2) compiles a sum over a minor axis of
+    2 or 3 (`jnp.sum((p[:, None] - q[None]) ** 2, -1)`) into a reduction fusion many
+    times slower than the same sum written out, and gathers `(m, k, d)` points more
+    slowly than one coordinate at a time. With these, the pruned check for lost feet and
+    the curve by segments, the solve of two traced 1024-px glyphs took 0.42 and 0.73 of
+    its time, their error measurement 0.53 and 0.74
+    (`benchmarks/results/fit_step.md` against `fit_step_2f81813.md`). For d = 2 the sums
+    are the same, bit for bit."""
+    return [x[..., i] for i in range(x.shape[-1])]
+
+
+def _sum(terms: list):
+    """The sum of a list of arrays, first to last (as a reduction over them would add)."""
+    total = terms[0]
+    for term in terms[1:]:
+        total = total + term
+    return total
+
+
+def _squared_distance(p: list, q: list):
+    """`|p - q|^2` from coordinate lists (`_coordinates`), broadcasting."""
+    return _sum([(a - b) ** 2 for a, b in zip(p, q)])
+
+
 def _closed_segments(index, N: int, count):
     """The segments of a closed polyline of `N` vertices at outline positions `index`.
 
@@ -55,21 +83,23 @@ def _window_project(points, curve, closed, window, count=None):
     N = curve.shape[0]
     window = _closed_segments(window, N, count) if closed else jnp.clip(window, 0, N - 2)
     a, b = _segment_ends(curve, closed)
-    A, B = a[window], b[window]  # (m, w, d) or (c, w, d)
+    A = [x[window] for x in _coordinates(a)]  # d arrays (m, w) or (c, w)
+    B = [x[window] for x in _coordinates(b)]
     if points.ndim == 3:  # clusters: one window for the points of each
-        A, B, window = A[:, None], B[:, None], window[:, None]
-    AB = B - A
-    length2 = jnp.sum(AB**2, -1)
+        A, B, window = [x[:, None] for x in A], [x[:, None] for x in B], window[:, None]
+    P = [x[..., None] for x in _coordinates(points)]
+    AB = [y - x for x, y in zip(A, B)]
+    length2 = _sum([x**2 for x in AB])
     safe = jnp.where(length2 > 0, length2, 1.0)
-    raw = jnp.where(length2 > 0, jnp.sum((points[..., None, :] - A) * AB, -1) / safe, 0.0)
+    raw = jnp.where(length2 > 0, _sum([(p - x) * y for p, x, y in zip(P, A, AB)]) / safe, 0.0)
     u = jnp.clip(raw, 0.0, 1.0)
     # A foot at a vertex is that vertex exactly (not A + 1 * AB, which rounds), so the
     # two chords meeting there tie exactly; the tie goes to the chord the point lies
     # less far beyond the end of (a geometric rule): with the first index winning, the
     # chord chosen, and with it its band (`Objective._band`), depended on which way
     # the samples ran (a reversed serif 'g': curves 2.9e-4 of the size apart).
-    foot = jnp.where((u == 1)[..., None], B, A + u[..., None] * AB)
-    square = jnp.sum((points[..., None, :] - foot) ** 2, -1)
+    foot = [jnp.where(u == 1, y, x + u * z) for x, y, z in zip(A, B, AB)]
+    square = _squared_distance(P, foot)
     beyond = (jnp.maximum(raw - 1, 0.0) + jnp.maximum(-raw, 0.0)) * jnp.sqrt(length2)
     nearest = square == jnp.min(square, axis=-1, keepdims=True)
     best = jnp.argmin(jnp.where(nearest, beyond, jnp.inf), axis=-1)
@@ -173,10 +203,11 @@ def _grouped_nearest_anchor(points, anchors):
         d2 = _anchor_distance2(p, padded).reshape(p.shape[0], -1, group)
         best = jnp.min(d2, axis=2)  # (m, k / group): a plain reduction, fused
         g = jnp.argmin(best, axis=1)  # the small array only
-        members = groups[g]  # (m, group, d)
+        members = [x[g] for x in _coordinates(groups)]  # d arrays (m, group)
         # `_anchor_distance2` within the group (rounding may differ: any of anchors
         # tied to rounding is a nearest one).
-        within = jnp.sum(members**2, -1) - 2 * jnp.sum(p[:, None, :] * members, -1)
+        within = (_sum([x**2 for x in members])
+                  - 2 * _sum([x[:, None] * y for x, y in zip(_coordinates(p), members)]))
         return g * group + jnp.argmin(within, axis=1), jnp.min(best, axis=1)
 
     return _in_row_blocks(block, anchors.shape[0], points)
@@ -202,37 +233,62 @@ def _pruned_nearest_anchor(points, anchors):
     offset, and no backend's reduced-precision matrix product can enter the
     certificate."""
     k, d = anchors.shape
-    group = PRUNE_GROUP
-    padded = jnp.concatenate([anchors, jnp.repeat(anchors[-1:], -k % group, axis=0)])
-    groups = padded.reshape(-1, group, d)
-    count = groups.shape[0]
-    centre = groups[:, group // 2]
-    radius = jnp.sqrt(jnp.max(jnp.sum((groups - centre[:, None]) ** 2, -1), axis=1))
-    # Relative rounding of each computed distance (a few eps for d <= 3); the bounds
-    # are lowered and the distances found raised by it, generously.
-    loose = 16 * (d + 2) * jnp.finfo(points.dtype).eps
+    groups, loose, bound, nearest_groups = _anchor_groups(anchors, points.dtype)
+    count, group = groups.shape[:2]
 
     def block(p):
-        to_centre = jnp.sqrt(jnp.sum((p[:, None, :] - centre[None]) ** 2, -1))  # (m, groups)
-        lower = to_centre * (1 - loose) - radius * (1 + loose)  # may be negative
-        g = jnp.argmin(lower, axis=1)
-        near = (g[:, None] + jnp.arange(-1, 2)) % count
-        # In increasing order, so that exact ties go to the first anchor, as elsewhere.
-        near = jnp.sort(near, axis=1)
-        members = groups[near].reshape(p.shape[0], -1, d)  # (m, 3 group, d)
-        gap2 = jnp.sum((p[:, None, :] - members) ** 2, -1)
+        lower, g, near, gap2 = nearest_groups(p)
         j = jnp.argmin(gap2, axis=1)
         found2 = jnp.min(gap2, axis=1)
         index = jnp.take_along_axis(near, (j // group)[:, None], axis=1)[:, 0] * group + j % group
-        offset = (jnp.arange(count)[None, :] - g[:, None]) % count
-        searched = (offset <= 1) | (offset == count - 1)
-        rest = jnp.min(jnp.where(searched, jnp.inf, jnp.maximum(lower, 0.0)), axis=1)
-        certain = found2 * (1 + loose) <= rest**2
+        certain = found2 * (1 + loose) <= bound(lower, g) ** 2
         # Padding copies the last anchor exactly; as the other searches, the squared
         # distance less |p|^2.
         return jnp.minimum(index, k - 1), found2 - jnp.sum(p**2, -1), certain
 
     return _in_row_blocks(block, (count + 3 * group) * (d + 1), points)
+
+
+def _anchor_groups(anchors, dtype):
+    """The pruned searches' groups of anchors: `(groups, loose, bound, nearest_groups)`.
+
+    `groups` `(count, PRUNE_GROUP, d)`: the anchors in groups of `PRUNE_GROUP`
+    consecutive ones (the last padded with copies of the last anchor), group $g$ inside
+    the ball of radius $r_g$ about its middle anchor $c_g$. `loose`: the relative
+    rounding allowed each computed distance (generously, a few eps for d <= 3).
+    `nearest_groups(p, g=None)`: for points `p` `(m, d)`, the bounds $|p - c_g| - r_g$
+    (lowered by `loose`) `(m, count)`, the group `g` of least bound (unless given),
+    it and its two neighbours (sorted) `(m, 3)`, and the squared distances to their
+    anchors `(m, 3 PRUNE_GROUP)`.
+    `bound(lower, g)`: each point's least bound, at least 0, over the groups not
+    searched."""
+    k, d = anchors.shape
+    group = PRUNE_GROUP
+    padded = jnp.concatenate([anchors, jnp.repeat(anchors[-1:], -k % group, axis=0)])
+    groups = padded.reshape(-1, group, d)
+    count = groups.shape[0]
+    centre = groups[:, group // 2]
+    radius = jnp.sqrt(jnp.max(_squared_distance(_coordinates(groups),
+                                                 _coordinates(centre[:, None])), axis=1))
+    loose = 16 * (d + 2) * jnp.finfo(dtype).eps
+
+    def nearest_groups(p, g=None):
+        P = _coordinates(p[:, None])
+        to_centre = jnp.sqrt(_squared_distance(P, _coordinates(centre[None])))  # (m, groups)
+        lower = to_centre * (1 - loose) - radius * (1 + loose)  # may be negative
+        if g is None:
+            g = jnp.argmin(lower, axis=1)
+        # In increasing order, so that exact ties go to the first anchor, as elsewhere.
+        near = jnp.sort((g[:, None] + jnp.arange(-1, 2)) % count, axis=1)
+        members = [x[near].reshape(p.shape[0], -1) for x in _coordinates(groups)]
+        return lower, g, near, _squared_distance(P, members)
+
+    def bound(lower, g):
+        offset = (jnp.arange(count)[None, :] - g[:, None]) % count
+        searched = (offset <= 1) | (offset == count - 1)
+        return jnp.min(jnp.where(searched, jnp.inf, jnp.maximum(lower, 0.0)), axis=1)
+
+    return groups, loose, bound, nearest_groups
 
 
 def _nearest_anchor_distance2(points, anchors):
@@ -254,14 +310,53 @@ def _anchor_distance2(points, anchors):
     return jnp.sum(anchors**2, -1)[None, :] - 2 * points @ anchors.T
 
 
-def _lost(points, anchors, found2):
+def _lost(points, anchors, found2, near=None):
     """Which points have an anchor nearer than the foot found (squared distances
-    `found2`): that foot is not the nearest point, and a global search is due."""
-    nearest2 = _nearest_anchor_distance2(points, anchors) + jnp.sum(points**2, -1)
+    `found2`): that foot is not the nearest point, and a global search is due.
+
+    From `PRUNED_FROM` anchors on, the anchors' groups are pruned by their bounding
+    balls first (`_pruned_lost`), and only the points that leaves undecided are checked
+    against every anchor (`_redo`). `near`: an anchor near each point's foot (any
+    index gives the same answer; one near the nearest anchor decides the most)."""
     # The matrix-product distances carry rounding of about eps |p|^2: an absolute margin
     # keeps exact fits (feet at distance ~0) from falling back at every step.
     scale = jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(anchors**2, -1)))
-    return nearest2 + 1e3 * jnp.finfo(points.dtype).eps * scale < found2
+    reach2 = found2 - 1e3 * jnp.finfo(points.dtype).eps * scale
+
+    def everywhere(rows):
+        points, reach2 = rows
+        return _nearest_anchor_distance2(points, anchors) + jnp.sum(points**2, -1) < reach2
+
+    if anchors.shape[0] < PRUNED_FROM:
+        return everywhere((points, reach2))
+    lost, undecided = _pruned_lost(points, anchors, reach2, near)
+    return _redo(undecided, lost, everywhere, (points, reach2))
+
+
+def _pruned_lost(points, anchors, reach2, near=None):
+    """`_lost` by bounds on the groups of anchors (`_anchor_groups`): `(lost, undecided)`.
+
+    A point is lost when an anchor of the group of its anchor `near` (by default its
+    nearest group by bound), or of the two groups either side, is nearer than `reach2`
+    (squared); it is not lost when, besides, every other group lies beyond it as a
+    whole, and undecided otherwise. One pass over points x groups instead of points x
+    anchors; the fit's feet give `near`, which saves an `argmin` over the groups. In a
+    fit of a traced 1024-px glyph this check runs at every solver step over about 6,000
+    samples and 4,000 anchors. Distances are sums of
+    squared differences, with relative rounding (`loose`)."""
+    groups, loose, bound, nearest_groups = _anchor_groups(anchors, points.dtype)
+    count, group, d = groups.shape
+    k = anchors.shape[0]
+
+    def block(p, reach2, *near):
+        g = jnp.clip(near[0], 0, k - 1) // group if near else None
+        lower, g, _, gap2 = nearest_groups(p, g)
+        lost = jnp.min(gap2, axis=1) < reach2
+        elsewhere = bound(lower, g) ** 2 < reach2 * (1 + loose)
+        return lost, ~lost & elsewhere
+
+    rows = (points, reach2) if near is None else (points, reach2, near)
+    return _in_row_blocks(block, (count + 3 * group) * (d + 1), *rows)
 
 
 def _unless(skip, found2):
@@ -360,7 +455,8 @@ def track(
     # Every foot searched again when one is lost (not only the lost ones, `_redo`): on
     # corner-heavy outlines that led fits to poorer minima and to crawl (measured on
     # matplotlib's home icon: 500 steps unconverged, RMS 1.3x, instead of 167 steps).
-    lost = _lost(points, anchors, _unless(skip, jnp.sum((points - foot) ** 2, -1)))
+    lost = _lost(points, anchors, _unless(skip, jnp.sum((points - foot) ** 2, -1)),
+                 near // coarse)
     return jax.lax.cond(jnp.any(lost), lambda: project(points, curve, closed, coarse, count),
                         lambda: (near, fraction))
 
@@ -606,7 +702,8 @@ def cluster_certificate(points, curve, closed, coarse, count):
     counts)."""
     members = _clusters(points)
     center = 0.5 * (jnp.min(members, axis=1) + jnp.max(members, axis=1))
-    rho = jnp.sqrt(jnp.max(jnp.sum((members - center[:, None, :]) ** 2, -1), axis=1))
+    rho = jnp.sqrt(jnp.max(_squared_distance(_coordinates(members),
+                                             _coordinates(center[:, None])), axis=1))
     coarse, _, nearest, segment, fraction = _coarse_to_fine(center, curve, closed, coarse, count)
     found = _found(center, curve, closed, segment, fraction)
     return coarse, nearest, _unsure(center, curve, closed, coarse, count, nearest,
@@ -631,7 +728,7 @@ def _unsure(points, curve, closed, coarse, count, nearest, found):
     leaves undecided are checked against every group (`_redo`). For the samples of
     traced 1024-px glyphs against their fitted curves (4,096-6,144 points, about 4,000
     groups) the search and certificate took 0.38-0.46 of the time of the two-level pass
-    (`benchmarks/results/fit_step.md` against `fit_step_57dbbf1.md`, back to back)."""
+    (`benchmarks/results/fit_step_d71ed09.md` against `fit_step_57dbbf1.md`, back to back)."""
     N = curve.shape[0]
     k = _anchors(curve, closed, coarse)[1].shape[0]
     # Group g: segments g*coarse ... g*coarse + coarse - 1, inside the ball about the
@@ -639,7 +736,8 @@ def _unsure(points, curve, closed, coarse, count, nearest, found):
     vertex = jnp.arange(k)[:, None] * coarse + jnp.arange(coarse + 1)[None, :]
     vertex = curve[vertex % N if closed else jnp.minimum(vertex, N - 1)]  # (k, coarse+1, d)
     center = 0.5 * (jnp.min(vertex, axis=1) + jnp.max(vertex, axis=1))
-    radius = jnp.sqrt(jnp.max(jnp.sum((vertex - center[:, None, :]) ** 2, -1), axis=1))
+    radius = jnp.sqrt(jnp.max(_squared_distance(_coordinates(vertex),
+                                                _coordinates(center[:, None])), axis=1))
     # Rounding of the matrix-product distances (about eps |p|^2) must not certify a
     # group that is truly nearer: a margin relative to the coordinates' scale.
     scale = jnp.sqrt(jnp.maximum(jnp.max(jnp.sum(points**2, -1)), jnp.max(jnp.sum(curve**2, -1))))
@@ -709,12 +807,14 @@ def _pruned_unsure(points, reach, nearest, center, radius, searched, closed):
     blocks = members.shape[0]
     block_center = 0.5 * (jnp.min(jnp.where(real, members, jnp.inf), axis=1)
                           + jnp.max(jnp.where(real, members, -jnp.inf), axis=1))
-    spread = jnp.sqrt(jnp.sum((members - block_center[:, None]) ** 2, -1))
+    spread = jnp.sqrt(_squared_distance(_coordinates(members),
+                                        _coordinates(block_center[:, None])))
     block_radius = jnp.max(spread * (1 + loose) + radius.reshape(-1, group), axis=1) * (1 + loose)
 
     def rows(p, reach, nearest):
         m = p.shape[0]
-        lower = (jnp.sqrt(jnp.sum((p[:, None, :] - block_center[None]) ** 2, -1)) * (1 - loose)
+        P = _coordinates(p[:, None])
+        lower = (jnp.sqrt(_squared_distance(P, _coordinates(block_center[None]))) * (1 - loose)
                  - block_radius[None, :])  # (m, blocks)
         own = nearest // group
         offset = jnp.arange(blocks)[None, :] - own[:, None]
@@ -724,7 +824,8 @@ def _pruned_unsure(points, reach, nearest, center, radius, searched, closed):
         near = own[:, None] + jnp.arange(-1, 2)[None, :]
         near = near % blocks if closed else jnp.clip(near, 0, blocks - 1)  # repeats: harmless
         g = (near[:, :, None] * group + jnp.arange(group)).reshape(m, -1)  # (m, 3 group)
-        to_group = jnp.sqrt(jnp.sum((p[:, None, :] - center[g]) ** 2, -1)) * (1 - loose)
+        to_group = jnp.sqrt(_squared_distance(P, [x[g] for x in _coordinates(center)]))
+        to_group = to_group * (1 - loose)
         unsure = jnp.any(~searched(nearest, g) & (to_group - radius[g] < reach[:, None]), axis=1)
         return unsure, undecided
 
@@ -850,6 +951,32 @@ def band_basis(position: js.CurveStencil, tangent: js.CurveStencil | None,
     ends = jnp.stack([take(A, here, slice(None)), take(V, here, slice(None)),
                       take(A, there, nxt), take(W, there, nxt)], axis=1)
     return Band(start=jnp.asarray(first, jnp.int32), ends=ends)
+
+
+def band_curve(band: Band, P: Float[Array, "n d"], V=None):
+    """The curve's samples and tangents, `(X, VX)` as `A @ P` and `tangents_of(V, P)`
+    give them, from its tables by segments (`band_basis`): each sample from the `width`
+    control points its row reads instead of a product with the dense `(N, n)` basis.
+    `V`, the dense tangent basis, only says which tangents there are (None: chords; a
+    pair: a creased closed curve's from after and from before each sample, the latter
+    being the row at the end of the segment before it)."""
+    n = P.shape[0]
+    width = band.ends.shape[-1]
+    window = (band.start[:, None] + jnp.arange(width)[None, :]) % n
+    columns = [x[window] for x in _coordinates(P)]  # d arrays (N, width)
+
+    def combine(rows):  # (N, width) rows: the products summed column by column
+        return jnp.stack([_sum([rows[:, w] * x[:, w] for w in range(width)])
+                          for x in columns], axis=-1)
+
+    X = combine(band.ends[:, 0])
+    if V is None:
+        return X, None
+    after = combine(band.ends[:, 1])
+    if not isinstance(V, tuple):
+        return X, after
+    # Segment k ends at sample k + 1 (cyclically: creased curves are closed).
+    return X, (after, jnp.roll(combine(band.ends[:, 3]), 1, axis=0))
 
 
 def band_rows(
@@ -1022,8 +1149,9 @@ def locate(
     V = jax.lax.stop_gradient(V)
     tau = _newton(points, X, V, jax.lax.stop_gradient(previous), closed, newton, float(coarse))
     (C,) = evaluate(X, V, tau, closed, order=0)
-    _, anchors = _anchors(X, closed, coarse)
-    lost = _lost(points, anchors, _unless(skip, jnp.sum((C - points) ** 2, -1)))
+    spacing, anchors = _anchors(X, closed, coarse)
+    lost = _lost(points, anchors, _unless(skip, jnp.sum((C - points) ** 2, -1)),
+                 jnp.floor(tau).astype(jnp.int32) // spacing)
     return jax.lax.cond(jnp.any(lost), lambda: locate(points, X, V, closed, coarse, newton),
                         lambda: tau)  # all searched again, as in `track`
 

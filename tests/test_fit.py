@@ -730,6 +730,20 @@ def test_nearest_anchor_is_the_nearest_by_brute_force(m, k, repeated, search_lev
     assert tied.size == 0, "a repeated anchor won over its first copy"
 
 
+def _anchors_and_points(k: int, seed: int):
+    """`k` anchors along a glyph's outline, 3,000 points near it (1e-3 of its size off)
+    and 600 far off it (0.1), each point's brute-force least squared distance to the
+    anchors, the outline's size, and the random generator (to go on drawing from)."""
+    anchors = glyph_outline("S", k)
+    rng = np.random.default_rng(seed)
+    size = np.linalg.norm(np.ptp(anchors, axis=0))
+    on = glyph_outline("S", 3000) + 1e-3 * size * rng.standard_normal((3000, 2))
+    off = anchors[rng.integers(0, k, 600)] + 0.1 * size * rng.standard_normal((600, 2))
+    points = np.concatenate([on, off])
+    exact = np.sum((points[:, None, :] - anchors[None]) ** 2, -1).min(1)
+    return anchors, points, exact, size, rng
+
+
 @pytest.mark.parametrize("k", [1024, 1000])
 def test_pruned_nearest_anchor_certifies_only_the_nearest(monkeypatch, k):
     """The pruned search (`_curve._pruned_nearest_anchor`, the nearest of groups by a
@@ -740,13 +754,7 @@ def test_pruned_nearest_anchor_certifies_only_the_nearest(monkeypatch, k):
     not; and `_nearest_anchor`, which sends the uncertain ones to the two-level search,
     is exact for all."""
     monkeypatch.setattr(_curve, "PRUNED_FROM", 1)
-    anchors = glyph_outline("S", k)
-    rng = np.random.default_rng(8)
-    size = np.linalg.norm(np.ptp(anchors, axis=0))
-    on = glyph_outline("S", 3000) + 1e-3 * size * rng.standard_normal((3000, 2))
-    off = anchors[rng.integers(0, k, 600)] + 0.1 * size * rng.standard_normal((600, 2))
-    points = np.concatenate([on, off])
-    exact = np.sum((points[:, None, :] - anchors[None]) ** 2, -1).min(1)
+    anchors, points, exact, size, _ = _anchors_and_points(k, seed=8)
     P, A = jnp.asarray(points), jnp.asarray(anchors)
     index, least, certain = map(np.asarray, _curve._pruned_nearest_anchor(P, A))
     at = np.sum((points - anchors[index]) ** 2, -1)
@@ -818,6 +826,81 @@ def test_pruned_certificate_leaves_no_nearer_point_unchecked(closed):
         "certified with a nearer point elsewhere"
     assert np.mean(certified[:3000]) > 0.95
     assert 0.1 < np.mean(undecided[3000:]) < 1
+
+
+#: (scheme, n, boundary, hermite, creased): the curve tables `band_curve` reads, closed
+#: and open, Hermite and chords, creased (tangents from after and from before each
+#: sample), and fewer control points than a window (n = 3).
+band_cases = [(js.CubicBSpline(), 16, "closed", True, False),
+              (js.CubicBSpline(), 16, "closed", True, True),
+              (js.FourPoint(), 12, "closed", True, False),
+              (js.FourPoint(), 12, "closed", False, True),
+              (js.Chaikin(), 10, "open", False, False),
+              (js.CubicBSpline(), 9, "open", True, False),
+              (js.CubicBSpline(), 3, "open", True, False)]
+
+
+@pytest.mark.parametrize("scheme, n, boundary, hermite, creased", band_cases)
+def test_curve_by_segments_equals_the_dense_basis(scheme, n, boundary, hermite, creased):
+    """`_curve.band_curve` (the fit's curve samples and tangents from the few control
+    points each sample reads) equals the products with the dense `(N, n)` bases of the
+    same tables, to rounding."""
+    if creased:
+        creases = np.zeros(n, bool)
+        creases[[1, 5]] = True
+        position, tangents = _curve.creased_tables(scheme, n, 3, jnp.asarray(creases),
+                                                   jnp.float64, hermite)
+        dense = (position.dense(), None if tangents is None else tuple(t.dense() for t in tangents))
+        band = _curve.band_basis(position, *(tangents or (None,)))
+    else:
+        tables = _curve.curve_tables(scheme, n, 3, boundary, jnp.float64, hermite)
+        dense = (tables[0].dense(), None if tables[1] is None else tables[1].dense())
+        band = _curve.band_basis(*tables)
+    A, V = dense
+    P = np.random.default_rng(n).standard_normal((n, 2))
+    X, VX = _curve.band_curve(band, jnp.asarray(P), V)
+    np.testing.assert_allclose(X, np.asarray(A) @ P, rtol=0, atol=1e-14)
+    assert (VX is None) == (V is None) and isinstance(VX, tuple) == isinstance(V, tuple)
+    for ours, basis in zip(jax.tree.leaves(VX), jax.tree.leaves(V)):
+        np.testing.assert_allclose(ours, np.asarray(basis) @ P, rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("pruned", [True, False])
+@pytest.mark.parametrize("k", [1024, 1000])
+def test_lost_feet_are_those_with_a_nearer_anchor(monkeypatch, k, pruned):
+    """`_curve._lost` (is an anchor nearer than the point's foot?, which sends a fit's
+    feet to the global search) on anchors along a glyph's outline, by groups pruned by
+    their balls or against every anchor (1,000 anchors: the last group padded): equal to
+    brute force for points near the outline and far off it, with feet 10-50% nearer or
+    farther than the nearest anchor (far beyond the check's rounding margin) and skipped
+    points' zero distances (never lost), whatever anchor near each foot it is given. The
+    pruned pass (`_curve._pruned_lost`) decides
+    nearly all points near the outline itself, never wrongly, and leaves points far off
+    it undecided often enough that its bounds are seen to bite."""
+    monkeypatch.setattr(_curve, "PRUNED_FROM", 1 if pruned else 10**9)
+    anchors, points, exact, _, rng = _anchors_and_points(k, seed=10)
+    factor = np.where(rng.random(len(points)) < 0.5, rng.uniform(0.5, 0.9, len(points)),
+                      rng.uniform(1.1, 1.5, len(points)))
+    found2 = exact * factor**2
+    found2[::7] = 0.0
+    truth = exact < found2
+    assert 0.3 < np.mean(truth[:3000]) < 0.6 and 0.3 < np.mean(truth[3000:]) < 0.6
+    P, A = jnp.asarray(points), jnp.asarray(anchors)
+    # An anchor near each foot, as the fit passes it: the nearest one's neighbour for
+    # points on the outline, any one for points off it (the answer must not depend on it).
+    near = np.argmin(np.sum((points[:, None, :] - anchors[None]) ** 2, -1), axis=1)
+    near = np.where(np.arange(len(points)) < 3000, (near + 1) % k, rng.integers(0, k, len(points)))
+    for given in (None, jnp.asarray(near)):
+        lost = np.asarray(_curve._lost(P, A, jnp.asarray(found2), given))
+        np.testing.assert_array_equal(lost, truth)
+    if pruned:
+        pruned_lost, undecided = map(np.asarray, _curve._pruned_lost(P, A, jnp.asarray(found2)))
+        decided = ~undecided
+        np.testing.assert_array_equal(pruned_lost[decided], truth[decided])
+        assert np.mean(decided[:3000]) > 0.95
+        # Far points not lost: only the bounds can clear them.
+        cleared_by_bounds = ~truth & (found2 > 0)
+        assert 0.1 < np.mean(undecided[3000:][cleared_by_bounds[3000:]]) < 1
 
 
 @pytest.mark.parametrize("m, k, excluded", [(40, 10, 2), (300, 250, 2), (100, 64, 5)])
