@@ -46,6 +46,7 @@ from ._objective import FitData, Objective
 from ._params import uses_tangents
 from ._result import FitResult, FitStatus, report, status_code
 from ._solver import make_solver
+from ._threads import one_blas_thread
 
 
 def _fit_items(targets, weights, counts, corners, steps, scheme, root_smoothing, tol, total,
@@ -479,21 +480,26 @@ def fit_batch(
     options = dict(objective=objective, solver=own, progress=progress,
                    threads=_available_cores() if threads is None
                    else static_int(threads, "threads", minimum=1))
-    # Several processes (`jax.distributed`), no devices given, nothing traced: each
-    # process fits its share on its own devices (`_run_across_processes`).
-    if several_processes and not any(
+    concrete = not any(
         is_traced(x) for x in jax.tree.leaves((stacked, stacked_weights, scheme, settings))
-    ):
-        extra = (n, levels, boundary, pin_ends, names, repr(values), ordered,
-                 "levenberg-marquardt" if solver is None else
-                 solver if isinstance(solver, str) else "instance")
-        result = _run_across_processes(stacked, stacked_weights, counts, flags, scheme,
-                                       settings, extra=extra, **options)
-    else:
-        result = _run_batch(stacked, stacked_weights, counts, flags, scheme, settings,
-                            devices=devices, **options)
+    )
+    # One BLAS thread while the programs run (`fitting._threads`), which must have
+    # finished inside the block: a concrete batch is waited for here.
+    with one_blas_thread():
+        # Several processes (`jax.distributed`), no devices given, nothing traced: each
+        # process fits its share on its own devices (`_run_across_processes`).
+        if several_processes and concrete:
+            extra = (n, levels, boundary, pin_ends, names, repr(values), ordered,
+                     "levenberg-marquardt" if solver is None else
+                     solver if isinstance(solver, str) else "instance")
+            result = _run_across_processes(stacked, stacked_weights, counts, flags, scheme,
+                                           settings, extra=extra, **options)
+        else:
+            result = _run_batch(stacked, stacked_weights, counts, flags, scheme, settings,
+                                devices=devices, **options)
+        if progress or concrete:
+            jax.block_until_ready(result)
     if progress:
-        jax.block_until_ready(result)
         _progress.finish()
     for items_, status in ((bad, FitStatus.nonfinite_input), (list(invalid), FitStatus.invalid_input)):
         if items_:

@@ -32,6 +32,7 @@ from ._objective import FitData, Objective, curve_errors
 from ._params import from_unconstrained, to_unconstrained
 from ._result import FitResult, status_code
 from ._solver import FootPointLevenbergMarquardt
+from ._threads import one_blas_thread
 
 
 def make_objective(scheme, *, n: int, levels: int, boundary: str, names: tuple[str, ...],
@@ -461,10 +462,13 @@ def run(data: FitData, init, tol, max_steps, *, objective: Objective, solver=Non
                             objective.num_target)
     args = (data, init, tol, max_steps)
     static = dict(objective=objective, solver=solver, progress=steps)
-    exported = (solver is None and not steps and _exported.folder() is not None
-                and not any(is_traced(x) for x in jax.tree.leaves(args)))
+    concrete = not any(is_traced(x) for x in jax.tree.leaves(args))
+    exported = solver is None and not steps and _exported.folder() is not None and concrete
     clock = _progress.elapsed() if progress == "time" else contextlib.nullcontext()
-    with clock:
+    # One BLAS thread while the programs run (`_threads`), so they must have finished
+    # inside the block: a concrete fit is waited for here (its caller reads its status
+    # next anyway).
+    with clock, one_blas_thread():
         if exported:
             structure = solved_structure(data.scheme, objective, data.count is not None)
             solved = _exported.call(solve_one, args, static, structure)
@@ -474,7 +478,7 @@ def run(data: FitData, init, tol, max_steps, *, objective: Objective, solver=Non
             solved = solve_jit(*args, **static)
             measured = measure_jit(*measure_arguments(solved), closed=objective.closed)
         result = assemble(solved, measured, objective)
-        if progress:
+        if progress or concrete:
             jax.block_until_ready(result)
     if steps:
         _progress.finish()

@@ -326,6 +326,39 @@ def test_batch_equals_loop_and_nan_item_fails_alone():
         np.testing.assert_allclose(batch.rms[i], single.rms, rtol=1e-6)
 
 
+def test_fits_run_with_one_blas_thread_and_leave_the_users_setting(monkeypatch):
+    """`fit` and `fit_batch` run their programs under a limit of one BLAS thread
+    (`fitting._threads`: scipy's OpenBLAS threads, spinning after each small
+    factorisation, took cores from XLA's), once per call, as the BLAS libraries
+    themselves report it (threadpoolctl reads their own thread counts); afterwards every
+    library has its thread count of before."""
+    import contextlib
+
+    from threadpoolctl import threadpool_info
+
+    from fitting import _batch, _core, _threads
+
+    counts = lambda: sorted((i["filepath"], i["num_threads"]) for i in threadpool_info()
+                            if i["user_api"] == "blas")
+    real, seen = _threads.one_blas_thread, []
+
+    @contextlib.contextmanager
+    def spy():
+        with real():
+            seen.append({n for _, n in counts()})
+            yield
+
+    fitting.fit(blob(120, seed=1), js.CubicBSpline(), 10)  # the BLAS libraries loaded
+    before = counts()
+    assert before, "no BLAS library found: the limit would do nothing"
+    monkeypatch.setattr(_core, "one_blas_thread", spy)
+    monkeypatch.setattr(_batch, "one_blas_thread", spy)
+    fitting.fit(blob(120, seed=1), js.CubicBSpline(), 10)
+    fitting.fit_batch(np.stack([blob(120, seed=s) for s in range(2)]), js.CubicBSpline(), 10)
+    assert seen == [{1}, {1}]
+    assert counts() == before
+
+
 INVALID_ITEMS = [
     ("one_dimensional", np.linspace(0.0, 1.0, 50), "must have shape (m, d)"),
     ("one_column", np.linspace(0.0, 1.0, 50)[:, None], "must have shape (m, d)"),
