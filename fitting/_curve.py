@@ -30,11 +30,11 @@ def _coordinates(x) -> list:
     trailing axis of size d: XLA on CPU (jax 0.10.2) compiles a sum over a minor axis of
     2 or 3 (`jnp.sum((p[:, None] - q[None]) ** 2, -1)`) into a reduction fusion many
     times slower than the same sum written out, and gathers `(m, k, d)` points more
-    slowly than one coordinate at a time. With these, the pruned check for lost feet and
-    the curve by segments, the solve of two traced 1024-px glyphs took 0.42 and 0.73 of
-    its time, their error measurement 0.53 and 0.74
-    (`benchmarks/results/fit_step.md` against `fit_step_2f81813.md`). For d = 2 the sums
-    are the same, bit for bit."""
+    slowly than one coordinate at a time. With these and the pruned check for lost feet,
+    the solve of two traced 1024-px glyphs took 0.45 and 0.56 of
+    its time, their error measurement 0.55 and 0.54
+    (`benchmarks/results/fit_step.md` against `fit_step_2f81813.md`). The sums are the
+    same; their rounding in a compiled program may differ (fused multiply-adds)."""
     return [x[..., i] for i in range(x.shape[-1])]
 
 
@@ -951,32 +951,6 @@ def band_basis(position: js.CurveStencil, tangent: js.CurveStencil | None,
     ends = jnp.stack([take(A, here, slice(None)), take(V, here, slice(None)),
                       take(A, there, nxt), take(W, there, nxt)], axis=1)
     return Band(start=jnp.asarray(first, jnp.int32), ends=ends)
-
-
-def band_curve(band: Band, P: Float[Array, "n d"], V=None):
-    """The curve's samples and tangents, `(X, VX)` as `A @ P` and `tangents_of(V, P)`
-    give them, from its tables by segments (`band_basis`): each sample from the `width`
-    control points its row reads instead of a product with the dense `(N, n)` basis.
-    `V`, the dense tangent basis, only says which tangents there are (None: chords; a
-    pair: a creased closed curve's from after and from before each sample, the latter
-    being the row at the end of the segment before it)."""
-    n = P.shape[0]
-    width = band.ends.shape[-1]
-    window = (band.start[:, None] + jnp.arange(width)[None, :]) % n
-    columns = [x[window] for x in _coordinates(P)]  # d arrays (N, width)
-
-    def combine(rows):  # (N, width) rows: the products summed column by column
-        return jnp.stack([_sum([rows[:, w] * x[:, w] for w in range(width)])
-                          for x in columns], axis=-1)
-
-    X = combine(band.ends[:, 0])
-    if V is None:
-        return X, None
-    after = combine(band.ends[:, 1])
-    if not isinstance(V, tuple):
-        return X, after
-    # Segment k ends at sample k + 1 (cyclically: creased curves are closed).
-    return X, (after, jnp.roll(combine(band.ends[:, 3]), 1, axis=0))
 
 
 def band_rows(

@@ -40,7 +40,6 @@ from ._curve import (
     _window_project,
     all_distances,
     band_basis,
-    band_curve,
     band_rows,
     chord_band,
     creased_tables,
@@ -324,13 +323,12 @@ class Objective(eqx.Module):
         With the `previous` feet (e.g. the last solver step's), each foot is searched near
         its previous position first (`_curve.track`), globally only where that fails."""
         target, weights = args.target, args.weights
-        _, A, V, banded = self.basis(y, args)
+        _, A, V, _ = self.basis(y, args)
         P = self.control(y, args, A)
-        # The curve from its rows by segments: each sample from the few control points it
-        # reads, not a product with the dense (N, n) basis.
-        X, VX = band_curve(banded, P, V)
+        X = A @ P
         # The corner samples' feet are replaced below: where the tracked search finds
         # them is no reason for a global search (they were, at every step, before).
+        VX = tangents_of(V, P)
         tau = locate(target, X, VX, self.closed,
                      coarse=max(1, min(8, self.num_curve // 64)),
                      previous=None if previous is None else previous[0],
@@ -467,9 +465,9 @@ class Objective(eqx.Module):
     def curve(self, y, data: FitData) -> tuple[Array, Array | None]:
         """The curve's samples `(N, d)` at `y`, and its tangents there for the Hermite
         model (else None)."""
-        _, A, V, banded = self.basis(y, data)
+        _, A, V, _ = self.basis(y, data)
         P = self.control(y, data, A)
-        return band_curve(banded, P, V)
+        return A @ P, tangents_of(V, P)
 
     def quadratic_model(self, y, args, feet=None):
         r"""Loss, half gradient and half Hessian of the loss at `y` (flattened in

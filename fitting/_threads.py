@@ -9,7 +9,8 @@ the rest of the program. With one OpenBLAS thread, fits of traced 1024-px glyphs
 0.63-0.64 of the time on 2 cores (STIXGeneral and DejaVu Serif 'S': 0.74 -> 0.46 s and
 1.03 -> 0.66 s); the star at 1024 px, fits at 256 px, a `fit_params` fit and a
 `fit_batch` took the same time within the noise (0.99-1.02;
-`benchmarks/results/blas_threads.md`, both settings alternating in one process).
+`benchmarks/results/blas_threads.md`, both settings alternating in one process, on a
+tree that differed from this one only in how the feet's curve was evaluated).
 
 The limit holds only while a fit runs (threadpoolctl's controller, as scikit-learn
 limits BLAS inside its own parallel sections): afterwards the process's BLAS settings

@@ -861,43 +861,6 @@ def test_pruned_certificate_leaves_no_nearer_point_unchecked(closed):
     assert 0.1 < np.mean(undecided[3000:]) < 1
 
 
-#: (scheme, n, boundary, hermite, creased): the curve tables `band_curve` reads, closed
-#: and open, Hermite and chords, creased (tangents from after and from before each
-#: sample), and fewer control points than a window (n = 3).
-band_cases = [(js.CubicBSpline(), 16, "closed", True, False),
-              (js.CubicBSpline(), 16, "closed", True, True),
-              (js.FourPoint(), 12, "closed", True, False),
-              (js.FourPoint(), 12, "closed", False, True),
-              (js.Chaikin(), 10, "open", False, False),
-              (js.CubicBSpline(), 9, "open", True, False),
-              (js.CubicBSpline(), 3, "open", True, False)]
-
-
-@pytest.mark.parametrize("scheme, n, boundary, hermite, creased", band_cases)
-def test_curve_by_segments_equals_the_dense_basis(scheme, n, boundary, hermite, creased):
-    """`_curve.band_curve` (the fit's curve samples and tangents from the few control
-    points each sample reads) equals the products with the dense `(N, n)` bases of the
-    same tables, to rounding."""
-    if creased:
-        creases = np.zeros(n, bool)
-        creases[[1, 5]] = True
-        position, tangents = _curve.creased_tables(scheme, n, 3, jnp.asarray(creases),
-                                                   jnp.float64, hermite)
-        dense = (position.dense(), None if tangents is None else tuple(t.dense() for t in tangents))
-        band = _curve.band_basis(position, *(tangents or (None,)))
-    else:
-        tables = _curve.curve_tables(scheme, n, 3, boundary, jnp.float64, hermite)
-        dense = (tables[0].dense(), None if tables[1] is None else tables[1].dense())
-        band = _curve.band_basis(*tables)
-    A, V = dense
-    P = np.random.default_rng(n).standard_normal((n, 2))
-    X, VX = _curve.band_curve(band, jnp.asarray(P), V)
-    np.testing.assert_allclose(X, np.asarray(A) @ P, rtol=0, atol=1e-14)
-    assert (VX is None) == (V is None) and isinstance(VX, tuple) == isinstance(V, tuple)
-    for ours, basis in zip(jax.tree.leaves(VX), jax.tree.leaves(V)):
-        np.testing.assert_allclose(ours, np.asarray(basis) @ P, rtol=0, atol=1e-13)
-
-
 @pytest.mark.parametrize("pruned", [True, False])
 @pytest.mark.parametrize("k", [1024, 1000])
 def test_lost_feet_are_those_with_a_nearer_anchor(monkeypatch, k, pruned):
