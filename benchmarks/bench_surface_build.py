@@ -13,6 +13,9 @@ Measured, in one run:
 
 - `Refiner build`: `jaxsubdiv.surfaces.Refiner(mesh, scheme, levels)`, the host-side
   topology build and per-level stencil tables, after one warm-up call;
+- `first build, new size`: one `Refiner` build for a torus with one more row per case
+  than any case before it (a mesh size the process has not seen), before the warm-up:
+  anything compiled per array shape shows here;
 - `refine_mesh`: a warm one-shot `jaxsubdiv.surfaces.refine_mesh(mesh, scheme,
   levels).vertices.block_until_ready()` (called once first, so that the jitted kernels
   are compiled): what a user refining a mesh once pays, the build included;
@@ -95,10 +98,21 @@ def child(cases_json: str) -> None:
     import jaxsubdiv
     import jaxsubdiv.surfaces as S
 
+    # The process's first build pays imports and caches (scipy.sparse, the first device
+    # transfers): paid here, untimed, on a size no case uses.
+    for name in SCHEMES:
+        S.Refiner(S.Mesh(*torus(3, 5, triangles=name == "Loop")), getattr(S, name)(), 1)
     results = []
-    for case in json.loads(cases_json):
+    for index, case in enumerate(json.loads(cases_json)):
         mesh = S.Mesh(*torus(*case["grid"], triangles=case["scheme"] == "Loop"))
         scheme, levels = getattr(S, case["scheme"])(), case["levels"]
+        # A mesh of a size no earlier case had (one more row per case): its first build,
+        # what a user meets on a new mesh (anything compiled per array shape shows here).
+        m, n = case["grid"]
+        points, faces = torus(m + 1 + index, n, triangles=case["scheme"] == "Loop")
+        start = time.perf_counter()
+        S.Refiner(S.Mesh(points, faces), scheme, levels)
+        first = time.perf_counter() - start
         warm = S.refine_mesh(mesh, scheme, levels)  # compiles the kernels
         warm.vertices.block_until_ready()
         build, refine = [], []
@@ -109,8 +123,8 @@ def child(cases_json: str) -> None:
             start = time.perf_counter()
             S.refine_mesh(mesh, scheme, levels).vertices.block_until_ready()
             refine.append(time.perf_counter() - start)
-        results.append(dict(build_s=build, refine_s=refine, vertices=warm.num_vertices,
-                            faces=warm.num_faces))
+        results.append(dict(build_s=build, refine_s=refine, first_build_s=[first],
+                            vertices=warm.num_vertices, faces=warm.num_faces))
     print(json.dumps(dict(source=jaxsubdiv.__file__, jax=jax.__version__, results=results)))
 
 
@@ -226,10 +240,10 @@ def _markdown(report: dict) -> str:
         "medians (below 1: ours is faster).", "",
     ]
     head = ["scheme", "mesh", "faces", "levels", "out vertices", "out faces",
-            "Refiner build ms", "refine_mesh ms"]
+            "Refiner build ms", "refine_mesh ms", "first build, new size ms"]
     if before:
-        head += ["build before ms", "refine_mesh before ms", "build after/before",
-                 "refine_mesh after/before"]
+        head += ["build before ms", "refine_mesh before ms", "first build before ms",
+                 "build after/before", "refine_mesh after/before", "first build after/before"]
     head += ["CGAL ms", "trimesh ms", "refine_mesh / CGAL", "build / CGAL",
              "refine_mesh / trimesh", "counts"]
     lines += ["| " + " | ".join(head) + " |", "|" + "---|" * 4 + "---:|" * (len(head) - 5)
@@ -239,12 +253,13 @@ def _markdown(report: dict) -> str:
         cgal, tri = row.get("cgal", {}), row.get("trimesh", {})
         cells = [row["scheme"], f"{row['mesh']} {row['grid'][0]}x{row['grid'][1]}",
                  row["faces"], row["levels"], after["vertices"], after["faces"],
-                 _ms(after["build_s"]), _ms(after["refine_s"])]
+                 _ms(after["build_s"]), _ms(after["refine_s"]), _ms(after.get("first_build_s"))]
         if before:
             old = row["ours"]["before"]
-            cells += [_ms(old["build_s"]), _ms(old["refine_s"]),
+            cells += [_ms(old["build_s"]), _ms(old["refine_s"]), _ms(old.get("first_build_s")),
                       _ratio(after["build_s"], old["build_s"]),
-                      _ratio(after["refine_s"], old["refine_s"])]
+                      _ratio(after["refine_s"], old["refine_s"]),
+                      _ratio(after.get("first_build_s"), old.get("first_build_s"))]
         cgal_cell = _ms(cgal["seconds"]) if "seconds" in cgal else cgal.get("status", "-")
         cells += [cgal_cell, _ms(tri.get("seconds")),
                   _ratio(after["refine_s"], cgal.get("seconds")),
@@ -293,7 +308,8 @@ def main() -> int:
         report["trimesh"] = trimesh.__version__ if trimesh else "not installed"
         if trimesh:  # its first call's imports and caches, untimed
             trimesh.remesh.subdivide_loop(*torus(4, 6, triangles=True), iterations=1)
-        rows = [dict(case, ours={name: dict(build_s=[], refine_s=[]) for name in versions},
+        rows = [dict(case, ours={name: dict(build_s=[], refine_s=[], first_build_s=[])
+                                 for name in versions},
                      cgal=dict(seconds=[]) if executable else dict(status=report["cgal"]),
                      trimesh=dict(seconds=[]) if trimesh and case["scheme"] == "Loop" else {})
                 for case in cases]
@@ -306,6 +322,7 @@ def main() -> int:
                     ours = row["ours"][name]
                     ours["build_s"] += result["build_s"]
                     ours["refine_s"] += result["refine_s"]
+                    ours["first_build_s"] += result["first_build_s"]
                     ours.update(vertices=result["vertices"], faces=result["faces"])
             for row, case in zip(rows, cases):
                 points, faces, off = meshes[case["mesh"], case["scheme"] == "Loop"]

@@ -21,7 +21,18 @@ MAX_MEMORY_BUDGET = 2**60
 
 
 def as_float_array(value: ArrayLike, name: str) -> Array:
-    """Convert `value` to a JAX floating array; integers and bools are promoted."""
+    """Convert `value` to a JAX floating array; integers and bools are promoted.
+
+    A numpy array is converted on the host and transferred with `device_put`:
+    `jnp.asarray` stages it through a small program compiled once per new shape, which
+    every new mesh or curve size paid (a `Refiner`'s template `Mesh`, for one:
+    `benchmarks/results/surface_build.md`, "first build, new size")."""
+    if isinstance(value, np.ndarray | np.generic):
+        kind = value.dtype.kind
+        if kind not in "biufc":  # strings, objects, dates
+            raise TypeError(f"`{name}` must be array-like, got {type(value).__name__} of "
+                            f"dtype {value.dtype}.")
+        return device_put_copy(value, np.float64 if kind in "biu" else None)
     try:
         array = jnp.asarray(value)
     except (TypeError, ValueError) as e:  # strings, None, objects
@@ -29,6 +40,14 @@ def as_float_array(value: ArrayLike, name: str) -> Array:
     if not jnp.issubdtype(array.dtype, jnp.inexact):
         array = array.astype(jnp.result_type(float))
     return array
+
+
+def device_put_copy(value, dtype=None) -> Array:
+    """A numpy array (or scalar) as a JAX array of `dtype` (default its own; 64-bit
+    dtypes become 32-bit without x64, as `jnp.asarray` does), by way of a private host
+    copy: `jax.device_put` reads its argument asynchronously, so a caller changing the
+    array right after the call could change the result (seen on CPU)."""
+    return jax.device_put(np.array(value, dtype=dtype, copy=True))
 
 
 def is_traced(value) -> bool:

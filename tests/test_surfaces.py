@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.interpolate
-from helpers import assert_one_clear_error, corner_value_error, prism
+from helpers import CompileCounter, assert_one_clear_error, corner_value_error, prism
 
 import jaxsubdiv as js
 import jaxsubdiv.surfaces as jss
@@ -1536,6 +1536,65 @@ def test_jit_compiles_once_per_topology():
     assert len(traces) == 1
     refine(jss.Mesh(v, f[:, ::-1]))
     assert len(traces) == 2
+
+
+def test_building_for_a_new_mesh_size_compiles_nothing():
+    """The topology build is host work: meshes of sizes this process has not seen, their
+    `Refiner`s and (Loop, Catmull-Clark) `Limit`s compile no XLA program. (A `Mesh` took
+    its numpy vertices through `jnp.asarray`, which compiles a staging program for every
+    new shape: two per `Refiner`, most of a first build on a new mesh.)"""
+    jss.Refiner(jss.Mesh(*grid(3, 4)), jss.CatmullClark(), 1)  # imports, warm caches
+    with CompileCounter() as compiled:
+        for m, n, triangles, scheme in [(23, 19, False, jss.CatmullClark()),
+                                        (21, 17, True, jss.Loop()),
+                                        (19, 23, False, jss.DooSabin())]:
+            v, f = grid(m, n, triangles=triangles)
+            mesh = jss.Mesh(v, f)
+            jss.Refiner(mesh, scheme, 2)
+            if not isinstance(scheme, jss.DooSabin):  # (no limit stencils)
+                jss.Limit(mesh, scheme)
+            jss.Mesh(np.round(10 * v).astype(np.int64), f)  # integer vertices too
+    assert compiled.count == 0
+
+
+@pytest.mark.parametrize("dtype, expected", [(np.int32, np.float64), (np.bool_, np.float64),
+                                             (np.float32, np.float32),
+                                             (np.float64, np.float64)])
+def test_numpy_vertices_are_copied_in_a_float_dtype(dtype, expected):
+    """numpy vertices become a JAX array of the same values (integers and bools as
+    float64 here, with 64-bit floats on; float32 kept), copied: changing the numpy array
+    afterwards does not change the mesh."""
+    v, f = cube()
+    given = (v > 0) if dtype is np.bool_ else (v * 3).astype(dtype)
+    mesh = jss.Mesh(given, f)
+    given[0] = 7
+    assert mesh.vertices.dtype == expected
+    np.testing.assert_array_equal(np.asarray(mesh.vertices)[1:], given[1:].astype(expected))
+    assert not np.any(np.asarray(mesh.vertices)[0] == 7)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64, np.int64])
+def test_host_arrays_are_transferred_from_a_private_copy(dtype):
+    """`jax.device_put` reads a numpy array asynchronously: changed right after the call,
+    an array can show the change (on CPU this test failed for all three dtypes with a
+    plain `device_put`). The library's
+    transfers (`as_float_array`, `StencilTable`'s arrays) copy first: every array keeps
+    the values it was given."""
+    from jaxsubdiv._misc import device_put_copy
+
+    changed = 0
+    for k in range(200):
+        given = np.arange(3 * (8 + k)).reshape(-1, 3).astype(dtype)
+        array = device_put_copy(given)
+        given[0, 0] = 7
+        changed += int(np.asarray(array)[0, 0] == 7)
+    assert changed == 0
+
+
+def test_vertices_of_strings_are_a_clear_error():
+    v, f = cube()
+    assert_one_clear_error(lambda: jss.Mesh(v.astype(str), f), TypeError,
+                           ["`vertices`", "array-like"])
 
 
 def test_float32():

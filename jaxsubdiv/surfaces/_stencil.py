@@ -15,7 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int, Shaped
 
-from .._misc import as_float_array, is_traced
+from .._misc import as_float_array, device_put_copy, is_traced
 
 
 @dataclasses.dataclass(frozen=True)
@@ -127,10 +127,11 @@ def _ranks(counts: np.ndarray) -> np.ndarray:
 def _index_array(x) -> Array:
     """An int32 JAX array. Concrete input is converted on the host and transferred
     with `jax.device_put` (`jnp.asarray` compiles a small kernel per new length, which
-    made building tables for many small meshes slow)."""
+    made building tables for many small meshes slow), from a private copy (see
+    `device_put_copy`)."""
     if is_traced(x) or isinstance(x, jax.Array):
         return jnp.asarray(x, jnp.int32)
-    return jax.device_put(np.asarray(x, np.int32))
+    return device_put_copy(x, np.int32)
 
 
 def _weight_array(x) -> Array:
@@ -138,9 +139,7 @@ def _weight_array(x) -> Array:
     if is_traced(x) or isinstance(x, jax.Array):
         return as_float_array(x, "weights")
     x = np.asarray(x)
-    if not np.issubdtype(x.dtype, np.floating):
-        x = x.astype(np.float64)
-    return jax.device_put(x)
+    return device_put_copy(x, None if np.issubdtype(x.dtype, np.floating) else np.float64)
 
 
 @ft.partial(jax.jit, static_argnums=4)
@@ -196,6 +195,8 @@ class StencilTable(eqx.Module):
         weights: ArrayLike,
         num_rows: int,
         num_cols: int,
+        *,
+        _owned: bool = False,
     ):
         """**Arguments:**
 
@@ -209,15 +210,21 @@ class StencilTable(eqx.Module):
             raise ValueError("`rows`, `cols` and `weights` must be 1-d arrays of one length.")
         if not isinstance(rows, jax.core.Tracer) and len(rows_np) > 1 and np.any(np.diff(rows_np) < 0):
             raise ValueError("`rows` must be sorted (non-decreasing).")
-        self.rows = _index_array(rows)
-        self.cols = _index_array(cols)
-        self.weights = _weight_array(weights)
+        if _owned:
+            # `from_sparse`: a build's own numpy arrays, which nothing changes afterwards:
+            # one `device_put`, without the copies that protect a caller's arrays.
+            self.rows, self.cols, self.weights = jax.device_put((rows, cols, weights))
+        else:
+            self.rows = _index_array(rows)
+            self.cols = _index_array(cols)
+            self.weights = _weight_array(weights)
         self.num_rows = int(num_rows)
         self.num_cols = int(num_cols)
 
     @staticmethod
     def from_sparse(sparse: Sparse) -> "StencilTable":
-        return StencilTable(sparse.rows, sparse.cols, sparse.weights, *sparse.shape)
+        return StencilTable(np.asarray(sparse.rows, np.int32), np.asarray(sparse.cols, np.int32),
+                            np.asarray(sparse.weights, np.float64), *sparse.shape, _owned=True)
 
     def __call__(self, data: Shaped[ArrayLike, "*batch V C"]) -> Float[Array, "*batch N C"]:
         """Apply the table to per-vertex `data`.
