@@ -118,6 +118,9 @@ class Solved(eqx.Module):
     num_steps: Array
     status: Array
     newton_step: Array
+    # With a profile (`profile_start`): the fit with the parameters held at their start,
+    # which the result falls back to when its two-sided RMS is lower (`prefer_start`).
+    at_start: "Solved | None" = None
 
 
 def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
@@ -134,8 +137,14 @@ def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solv
     problem = set_up(data, init, objective)
     y0 = problem.start
     own_solver = solver is None
+    at_start = None
     if objective.names and objective.profile:
-        y0 = profile_start(objective, problem.data, y0, tol, max_steps if own_solver else None)
+        y0, held = profile_start(objective, problem.data, y0, tol,
+                                 max_steps if own_solver else None)
+        at_start = solved_from(objective, problem,
+                               {"control": held["control"], "params": held["params"]},
+                               hint=held["hint"], num_steps=held["num_steps"],
+                               status=held["status"], newton=held["newton"])
     if own_solver:
         solver = default_solver(objective, tol, problem.valid_count, max_steps, progress)
     sol = optx.least_squares(
@@ -144,9 +153,10 @@ def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solv
     )
     # The default solver reports its foot points and model at the returned point.
     newton = newton_step(objective, sol.value, problem.data, sol.stats.get("model"))
-    return solved_from(objective, problem, sol.value, hint=sol.stats.get("hint"),
-                       num_steps=sol.stats["num_steps"], status=status_code(sol.result),
-                       newton=newton)
+    solved = solved_from(objective, problem, sol.value, hint=sol.stats.get("hint"),
+                         num_steps=sol.stats["num_steps"], status=status_code(sol.result),
+                         newton=newton)
+    return eqx.tree_at(lambda s: s.at_start, solved, at_start, is_leaf=lambda x: x is None)
 
 
 class Problem(eqx.Module):
@@ -294,14 +304,52 @@ def assemble(solved: Solved, measured: dict, objective: Objective) -> FitResult:
                      levels=objective.levels, **measured)
 
 
+def prefer_start(solved: Solved, measured: dict, start_measured: dict) -> tuple[Solved, dict]:
+    """The joint fit of control points and parameters (`solved`, its errors `measured`),
+    or the fit with the parameters held at their start (`solved.at_start`, its errors
+    `start_measured`) where that one's two-sided RMS is lower, or the joint fit's is not
+    a number and the start's is. Without `at_start`, `solved` as it is.
+
+    The joint fit's loss is never above the start's fit's (`profile_start`), but the
+    loss is not the reported two-sided RMS (the larger of its two halves; the loss
+    weighs the curve-to-samples half less beyond a chord band), and moving the
+    parameters can move error from one half to the other: on a pixel silhouette the
+    fitted parameters raised the RMS by up to 6% (issue #14). A choice between two
+    fits, each with its own implicit derivatives (not differentiated itself). Concrete
+    values choose on the host (no program compiled); traced ones with `jnp.where`."""
+    start = solved.at_start
+    if start is None:
+        return solved, measured
+    joint = eqx.tree_at(lambda s: s.at_start, solved, None, is_leaf=lambda x: x is None)
+    joint_rms, start_rms = measured["rms"], start_measured["rms"]
+    if not (is_traced(joint_rms) or is_traced(start_rms)):
+        joint_rms, start_rms = float(joint_rms), float(start_rms)
+        better = np.isfinite(start_rms) and not joint_rms <= start_rms
+        return (start, start_measured) if better else (joint, measured)
+    better = jnp.isfinite(start_rms) & ~(joint_rms <= start_rms)
+    pick = lambda a, b: jnp.where(better, a, b)
+    return jax.tree.map(pick, start, joint), jax.tree.map(pick, start_measured, measured)
+
+
+def measure_solved(solved: Solved, objective: Objective, measure=None) -> tuple[Solved, dict]:
+    """`measure_one` of `solved` (and of its fit at the start, if any), and the result
+    `prefer_start` chooses. `measure`: how to run `measure_one` on `measure_arguments`
+    (default: traced in place)."""
+    if measure is None:
+        measure = lambda *args: measure_one(*args, closed=objective.closed)
+    measured = measure(*measure_arguments(solved))
+    if solved.at_start is None:
+        return solved, measured
+    return prefer_start(solved, measured, measure(*measure_arguments(solved.at_start)))
+
+
 def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
             progress: bool = False) -> FitResult:
     """Fit one target (pure JAX; `fit_batch` maps this, and `fit` runs its two parts,
     `solve_one` and `measure_one`, as two compiled programs)."""
     solved = solve_one(data, init, tol, max_steps, objective=objective, solver=solver,
                        progress=progress)
-    return assemble(solved, measure_one(*measure_arguments(solved), closed=objective.closed),
-                    objective)
+    return assemble(*measure_solved(solved, objective), objective)
 
 
 # Module level, so that repeated calls with the same shapes and settings reuse them.
@@ -366,8 +414,12 @@ def profile_start(objective: Objective, data: FitData, y0: dict, tol, max_steps)
     their start (with `max_steps` None, for optimistix's solvers, the profile's fits
     take the default solver's limit of 500 steps).
 
-    Not differentiated: the start is a choice, and the implicit derivatives of the fit
-    are those of the optimum it then reaches.
+    Returns the joint fit's start and the fit with the parameters held at their start
+    (control points, the parameters' unconstrained values, the solver's feet, steps,
+    status and Newton step), which `prefer_start` may return instead of the joint fit.
+    The joint fit's start is not differentiated: it is a choice, and the implicit
+    derivatives of the fit are those of the optimum it then reaches. The start's fit is:
+    it may be the result.
     """
     names, scheme = objective.names, data.scheme
     dtype = data.target.dtype
@@ -393,14 +445,23 @@ def profile_start(objective: Objective, data: FitData, y0: dict, tol, max_steps)
         P0 = jnp.where(start, y0["control"], fixed.unknowns(P0))
         sol = optx.least_squares(fixed.residuals, solver, {"control": P0, "params": {}},
                                  args=at, max_steps=None, throw=False)
-        loss = sol.stats["model"][0]
-        return sol.value["control"], jnp.where(jnp.isfinite(loss), loss, jnp.inf)
+        model = sol.stats["model"]
+        loss = jnp.where(jnp.isfinite(model[0]), model[0], jnp.inf)
+        newton = newton_step(fixed, sol.value, at, model)
+        return dict(control=sol.value["control"], loss=loss, hint=sol.stats["hint"],
+                    num_steps=sol.stats["num_steps"], status=status_code(sol.result),
+                    newton=newton)
 
     start = jnp.arange(1 + len(grid[names[0]])) == 0
-    controls, losses = jax.lax.map(lambda item: held(*item), (raws, start))
-    best = jnp.argmin(losses)
+    fits = jax.lax.map(lambda item: held(*item), (raws, start))
+    best = jnp.argmin(fits["loss"])
     choose = lambda x: jax.lax.stop_gradient(x[best])
-    return {"control": choose(controls), "params": {k: choose(v) for k, v in raws.items()}}
+    joint_start = {"control": choose(fits["control"]),
+                   "params": {k: choose(v) for k, v in raws.items()}}
+    # The start's fit is differentiated (it may be the result: `prefer_start`).
+    at_start = {k: v[0] for k, v in fits.items() if k != "loss"}
+    at_start["params"] = {k: v[0] for k, v in raws.items()}
+    return joint_start, at_start
 
 
 def newton_step(objective: Objective, y, data: FitData, model=None) -> Float[Array, ""]:
@@ -431,8 +492,12 @@ def solved_structure(scheme, objective: Objective, counted: bool):
                    count=0.0 if counted else None,
                    feet=0.0 if objective.closed and objective.hermite else None)
     # Every other field is one array.
-    arrays = {f.name: 0.0 for f in dataclasses.fields(Solved) if f.name not in varying}
-    return jax.tree.structure(Solved(**varying, **arrays))
+    arrays = {f.name: 0.0 for f in dataclasses.fields(Solved)
+              if f.name not in varying and f.name != "at_start"}
+    solved = Solved(**varying, **arrays)
+    if objective.names and objective.profile:  # the fit at the start, in the same form
+        solved = Solved(**varying, **arrays, at_start=solved)
+    return jax.tree.structure(solved)
 
 
 MEASURED = jax.tree.structure(dict.fromkeys(
@@ -472,12 +537,12 @@ def run(data: FitData, init, tol, max_steps, *, objective: Objective, solver=Non
         if exported:
             structure = solved_structure(data.scheme, objective, data.count is not None)
             solved = _exported.call(solve_one, args, static, structure)
-            measured = _exported.call(measure_one, measure_arguments(solved),
-                                      {"closed": objective.closed}, MEASURED)
+            measure = lambda *a: _exported.call(measure_one, a, {"closed": objective.closed},
+                                                MEASURED)
         else:
             solved = solve_jit(*args, **static)
-            measured = measure_jit(*measure_arguments(solved), closed=objective.closed)
-        result = assemble(solved, measured, objective)
+            measure = lambda *a: measure_jit(*a, closed=objective.closed)
+        result = assemble(*measure_solved(solved, objective, measure), objective)
         if progress or concrete:
             jax.block_until_ready(result)
     if steps:

@@ -500,7 +500,7 @@ class Objective(eqx.Module):
         (1.1-3.6x) a step with the parameters fixed, where autodiff through the
         residuals cost 2.1x (1.3-3.9x); most of the rest is building the tables at the
         parameters' values every step (n = 16, 32; 2026-12-05,
-        `benchmarks/results/fit_params_after.md` and `fit_params_e1790a5.md`). With
+        `benchmarks/results/fit_params_7b3f75b.md` and `fit_params_e1790a5.md`). With
         pinned ends the pin map depends on the parameters too, and `_parameter_blocks`
         (autodiff) assembles them.
 
