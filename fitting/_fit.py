@@ -153,9 +153,12 @@ def fit(
       more than 1e-3 off on 15 of 17 curves made from known parameters). The loss is
       not the reported two-sided `rms`, though (the larger of its two halves): where
       the fit with the parameters held at their start has the lower `rms`, that fit is
-      returned, its parameters the start's (their derivatives then those of that fit),
-      so `rms` is never above that of `fit` with the parameters fixed (on scikit-image's
-      horse, the joint fit's was up to 7.7% above). Default (None): 8 for
+      returned, its parameters the start's (their derivatives then those of that fit;
+      not if it did not converge and the joint fit did; default solver only). So `rms`
+      is never above that of the fit with the parameters held at their start: for
+      `FourPoint` and `SplitTweak` the fit `fit` makes with them fixed, up to rounding
+      (`CornerCutting`'s fitted model is chords at one more level than its fixed one).
+      On scikit-image's horse the joint fit's was up to 7.7% above. Default (None): 8 for
       one parameter (9 fits before the joint one), 5 for r and s (26). 0: the joint
       fit from the start alone, without that guarantee. At most 64 grid fits.
       `num_steps` counts the returned fit's steps only (the joint fit's, or the

@@ -1483,44 +1483,46 @@ def test_the_start_held_fixed_is_kept_with_its_derivatives_where_its_rms_is_lowe
     np.testing.assert_allclose(fitted.control_points, fixed.control_points, rtol=0, atol=1e-9)
     assert float(fitted.rms) == pytest.approx(float(fixed.rms), rel=1e-9)
     direction = jnp.asarray(np.random.default_rng(3).standard_normal(samples.shape))
-    # Traced, the choice is made by `jnp.where` (as in `fit_batch`). One program each.
+    # Traced, the choice is made by `jnp.where` (as in `fit_batch`); reverse mode goes
+    # through the profile's `lax.map` (forward mode too: its rule is a custom JVP).
+    # One program each.
     area = lambda x, **kw: _area(fitting.fit(x, scheme, 24, **kw).curve)
-    forward = jax.jit(lambda x, fit_params: jax.jvp(lambda y: area(y, fit_params=fit_params),
-                                                    (x,), (direction,)),
-                      static_argnums=1)
-    along = lambda x: area(x, fit_params=True)
-    expected = forward(samples, False)[1]
-    assert abs(float(expected)) > 1e-3  # the checks below are not of zeros
-    value, derivative = forward(samples, True)
-    assert float(value) == pytest.approx(float(_area(fixed.curve)), rel=1e-7)
-    np.testing.assert_allclose(derivative, expected, rtol=1e-8)
-    gradient = jax.jit(jax.grad(along))(samples)
+    expected = jax.jit(lambda x: jax.jvp(area, (x,), (direction,))[1])(samples)
+    assert abs(float(expected)) > 1e-3  # the check below is not of zeros
+    gradient = jax.jit(jax.grad(lambda x: area(x, fit_params=True)))(samples)
     np.testing.assert_allclose(jnp.sum(gradient * direction), expected, rtol=1e-8)
 
 
-@pytest.mark.parametrize("joint_rms, start_rms, keeps_start", [
-    (2.0, 1.0, True), (1.0, 2.0, False), (1.0, 1.0, False), (np.nan, 1.0, True),
-    (1.0, np.nan, False), (np.nan, np.nan, False), (np.inf, 1.0, True), (1.0, np.inf, False),
+@pytest.mark.parametrize("joint_rms, start_rms, statuses, keeps_start", [
+    (2.0, 1.0, (0, 0), True), (1.0, 2.0, (0, 0), False), (1.0, 1.0, (0, 0), False),
+    (np.nan, 1.0, (0, 0), True), (1.0, np.nan, (0, 0), False), (np.nan, np.nan, (0, 0), False),
+    (np.inf, 1.0, (0, 0), True), (1.0, np.inf, (0, 0), False),
+    # A start's fit that did not converge does not replace a joint fit that did.
+    (2.0, 1.0, (0, 1), False), (2.0, 1.0, (1, 0), True), (2.0, 1.0, (1, 1), True),
+    (np.nan, 1.0, (0, 1), False),
 ])
-def test_the_choice_of_the_start_on_the_host_and_traced(joint_rms, start_rms, keeps_start):
+def test_the_choice_of_the_start_on_the_host_and_traced(joint_rms, start_rms, statuses,
+                                                        keeps_start):
     """`prefer_start` keeps the joint fit unless the start's RMS is lower, or the joint
-    fit's is not a number and the start's is; concrete and traced choices agree."""
+    fit's is not a number and the start's is, and the start's fit converged or the
+    joint one did not; concrete and traced choices agree."""
     from fitting import _core
 
-    def solved(tag):
+    def solved(tag, status):
         arrays = {f.name: jnp.asarray(tag) for f in dataclasses.fields(_core.Solved)
                   if f.name not in ("at_start", "tangents", "creases", "count", "feet")}
+        arrays["status"] = jnp.asarray(status)
         return _core.Solved(tangents=None, creases=None, count=None, feet=None, **arrays)
 
-    def choose(joint, start):
-        pair = eqx.tree_at(lambda s: s.at_start, solved(1.0), solved(2.0),
-                           is_leaf=lambda x: x is None)
+    def choose(joint, start, joint_status, start_status):
+        pair = eqx.tree_at(lambda s: s.at_start, solved(1.0, joint_status),
+                           solved(2.0, start_status), is_leaf=lambda x: x is None)
         result, measured = _core.prefer_start(pair, {"rms": joint}, {"rms": start})
         return result.num_steps, measured["rms"]
 
     expected = (2.0, start_rms) if keeps_start else (1.0, joint_rms)
-    for steps, rms in (choose(joint_rms, start_rms),
-                       jax.jit(choose)(jnp.asarray(joint_rms), jnp.asarray(start_rms))):
+    args = (joint_rms, start_rms, *statuses)
+    for steps, rms in (choose(*args), jax.jit(choose)(*map(jnp.asarray, args))):
         assert float(steps) == expected[0]
         np.testing.assert_equal(float(rms), expected[1])
 
@@ -1962,13 +1964,18 @@ exported_structure_cases = [
     # Corners at 4 of the samples: a creased Hermite curve (tangents a pair), and chords.
     (js.CubicBSpline(), dict(corners=[0, 30, 60, 90])),
     (js.FourPoint(0.07), dict(corners=[0, 30, 60, 90])),
+    # Fitted parameters without a profile (no fit at the start), on chords, pinned.
+    (js.FourPoint(0.07), dict(fit_params=True, profile=0)),
+    (js.CornerCutting(), dict(fit_params=True, profile=2)),
+    (js.SplitTweak(), dict(fit_params=True, profile=2, boundary="clamped", pin_ends=True)),
 ]
 
 
 @pytest.mark.parametrize("scheme, options", exported_structure_cases,
                          ids=["closed-hermite", "closed-chords", "open-hermite",
                               "clamped-pinned", "fit-params", "creased-hermite",
-                              "creased-chords"])
+                              "creased-chords", "fit-params-no-profile",
+                              "fit-params-chords", "fit-params-pinned"])
 def test_exported_solve_structure_is_the_traced_one(monkeypatch, scheme, options):
     """The exported solve returns leaves only; the structure they are put back into is
     built by hand (`_core.solved_structure`). It must be the structure `solve_one`
