@@ -320,7 +320,9 @@ def prefer_start(solved: Solved, measured: dict, start_measured: dict) -> tuple[
     fitted parameters raised the RMS by up to 7.7% (issue #14). A choice between two
     fits, each with its own implicit derivatives (not differentiated itself). Concrete
     values choose on the host (no program compiled); traced ones with `jnp.where`, so
-    both fits' derivatives are computed, the other one's with zero tangents."""
+    both fits' derivatives are computed, the other one's with zero tangents. The
+    measurements returned say which was chosen: `params_held` (`FitResult.params_held`),
+    True for the start's fit."""
     start = solved.at_start
     if start is None:
         return solved, measured
@@ -330,13 +332,17 @@ def prefer_start(solved: Solved, measured: dict, start_measured: dict) -> tuple[
     if not any(is_traced(x) for x in (joint_rms, start_rms, *statuses)):
         joint_rms, start_rms = float(joint_rms), float(start_rms)
         joint_ok, start_ok = (int(x) == 0 for x in statuses)
-        better = (np.isfinite(start_rms) and not joint_rms <= start_rms
-                  and (start_ok or not joint_ok))
-        return (start, start_measured) if better else (joint, measured)
+        better = bool(np.isfinite(start_rms) and not joint_rms <= start_rms
+                      and (start_ok or not joint_ok))
+        # (device_put of a host value: no program is compiled for the flag.)
+        held = jax.device_put(np.asarray(better))
+        chosen = (start, start_measured) if better else (joint, measured)
+        return chosen[0], chosen[1] | {"params_held": held}
     joint_ok, start_ok = (x == 0 for x in statuses)
     better = jnp.isfinite(start_rms) & ~(joint_rms <= start_rms) & (start_ok | ~joint_ok)
     pick = lambda a, b: jnp.where(better, a, b)
-    return jax.tree.map(pick, start, joint), jax.tree.map(pick, start_measured, measured)
+    chosen = jax.tree.map(pick, start_measured, measured)
+    return jax.tree.map(pick, start, joint), chosen | {"params_held": better}
 
 
 def measure_solved(solved: Solved, objective: Objective, measure=None) -> tuple[Solved, dict]:

@@ -99,6 +99,12 @@ class FitResult(eqx.Module):
     - `status`: an integer array, 0 on success, else the number of the
       [`fitting.FitStatus`][] entry (optimistix's result) that stopped the solver: its
       name is `fitting.STATUSES[status]`. `converged` and `message` are derived from it.
+    - `params_held`: with `fit_params` (and a profile, the default solver): True where
+      the fit with the parameters held at their start was returned instead of the
+      joint fit, because its two-sided `rms` was lower (or the joint fit's was not a
+      number): the start's parameter values (the scheme's as given) with that fit's
+      control points and errors. False where the fitted values are returned. None when no parameter is fitted, or with
+      `profile=0` or an optimistix `solver` (no fit at the start to compare with).
     - `newton_step`: how far the control points still are from the exact optimum, as
       the local model of the loss estimates it: the largest control-point coordinate
       of the Newton step $-H^{-1} g$ at the returned point (a step in all the unknowns,
@@ -126,6 +132,7 @@ class FitResult(eqx.Module):
     boundary: str = eqx.field(static=True)
     levels: int = eqx.field(static=True)
     creases: Bool[Array, "*batch n"] | None = None
+    params_held: Bool[Array, "*batch"] | None = None
 
     @property
     def converged(self) -> Array:

@@ -645,7 +645,10 @@ def _fit(args) -> int:
             print(f"  corners    {int(np.sum(result.creases))} (creased control points)")
         elapsed = time.perf_counter() - start
         if args.fit_params:
-            print(f"  scheme     {_scheme_text(args.scheme, result.scheme)}")
+            held = result.params_held is not None and bool(result.params_held)
+            print(f"  scheme     {_scheme_text(args.scheme, result.scheme)}"
+                  + (" (kept at the start: the fitted values gave a higher rms error)"
+                     if held else ""))
         # Contours whose sample counts share a bucket reuse the first one's program.
         _print_errors(result, size, elapsed, compiles())
         if pixels:

@@ -430,7 +430,9 @@ def write_result_json(path: str | os.PathLike, result, *, info: dict | None = No
 
     The file records the scheme (its class and constructor arguments, e.g. the fitted
     `w`), the boundary and levels, the control points, the error measures, and the
-    solver's status, message and number of steps; and a closed curve's creases (a fit
+    solver's status, message and number of steps (and, of a fit with `fit_params`,
+    `params_held`: whether the parameters were kept at their start, `FitResult`), all
+    under `info`; and a closed curve's creases (a fit
     with corners: `creases`, indices or a boolean mask), as format version 2, which
     readers of version 1 refuse rather than draw the curve without its corners.
 

@@ -244,6 +244,9 @@ def test_fit_that_does_not_converge_exits_1_and_says_which(capsys, tmp_path):
     assert saved["scheme"]["type"] == "FourPoint"
     np.testing.assert_allclose(saved["scheme"]["parameters"]["w"], w, rtol=1e-5)
     assert 0 < w < 0.19 and saved["info"]["status"] != 0 and saved["info"]["num_steps"] == 3
+    # Whether the start's fit was kept: printed and saved alike.
+    assert isinstance(saved["info"]["params_held"], bool)
+    assert ("kept at the start" in out) == saved["info"]["params_held"]
 
 
 def test_demo_fits_prints_its_error_and_writes_a_picture(capsys, tmp_path):

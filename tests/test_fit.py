@@ -130,6 +130,8 @@ def test_recovers_parameters_from_any_start(name, truth, start, params):
     and the same optimum (curves within 1e-6 of the size) as the fit started at the
     truth: no local minimum. Measured: 1e-12 to 6e-10 between the two curves."""
     result, _, _, between = _recover(name)
+    # The fitted values, not the start's (`params_held` says which was returned).
+    assert not bool(result.params_held)
     for p in (params,) if isinstance(params, str) else params:
         assert abs(float(getattr(result.scheme, p)) - float(getattr(truth, p))) < 1e-3, p
     assert between < 1e-6
@@ -1458,6 +1460,10 @@ def test_fitted_parameters_never_do_worse_than_the_start_held_fixed(outline, sch
     independent = lambda r: two_sided_rms(np.asarray(r.curve), samples)
     assert float(fitted.rms) <= float(fixed.rms) * (1 + 1e-9)
     assert independent(fitted) <= independent(fixed) * (1 + 1e-6)
+    # Where the start's fit was returned, it has the start's values.
+    values = lambda s: [float(x) for x in jax.tree.leaves(s)]
+    if bool(fitted.params_held):
+        assert values(fitted.scheme) == values(scheme)
 
 
 def _area(curve):
@@ -1480,6 +1486,7 @@ def test_the_start_held_fixed_is_kept_with_its_derivatives_where_its_rms_is_lowe
     fixed = fitting.fit(samples, scheme, 24)
     fitted = fitting.fit(samples, scheme, 24, fit_params=True)
     assert float(fitted.scheme.w) == pytest.approx(1 / 16, rel=1e-12)
+    assert fixed.params_held is None and bool(fitted.params_held)
     np.testing.assert_allclose(fitted.control_points, fixed.control_points, rtol=0, atol=1e-9)
     assert float(fitted.rms) == pytest.approx(float(fixed.rms), rel=1e-9)
     direction = jnp.asarray(np.random.default_rng(3).standard_normal(samples.shape))
@@ -1518,13 +1525,14 @@ def test_the_choice_of_the_start_on_the_host_and_traced(joint_rms, start_rms, st
         pair = eqx.tree_at(lambda s: s.at_start, solved(1.0, joint_status),
                            solved(2.0, start_status), is_leaf=lambda x: x is None)
         result, measured = _core.prefer_start(pair, {"rms": joint}, {"rms": start})
-        return result.num_steps, measured["rms"]
+        return result.num_steps, measured["rms"], measured["params_held"]
 
     expected = (2.0, start_rms) if keeps_start else (1.0, joint_rms)
     args = (joint_rms, start_rms, *statuses)
-    for steps, rms in (choose(*args), jax.jit(choose)(*map(jnp.asarray, args))):
+    for steps, rms, held in (choose(*args), jax.jit(choose)(*map(jnp.asarray, args))):
         assert float(steps) == expected[0]
         np.testing.assert_equal(float(rms), expected[1])
+        assert held.dtype == bool and bool(held) == keeps_start
 
 
 @pytest.mark.parametrize(

@@ -200,6 +200,8 @@ def write_result_json(path, result, *, info: dict | None = None) -> None:
                 extra[name] = int(_scalar(getattr(result, name), name))
         if getattr(result, "message", None) is not None:
             extra["message"] = str(result.message)
+        if getattr(result, "params_held", None) is not None:
+            extra["params_held"] = bool(_scalar(result.params_held, "params_held"))
     extra |= source | dict(info or {})
     data["info"] = extra
     if not np.all(np.isfinite(points)):
