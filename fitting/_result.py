@@ -17,14 +17,25 @@ with warnings.catch_warnings():
 
     class FitStatus(optx.RESULTS):
         """Why a fit stopped: optimistix's results (`optimistix.RESULTS`, whose entries
-        and numbers it keeps: `FitStatus.promote(solution.result)`), with our message for
-        `nonfinite_input`, and `invalid_input` and `tolerance_not_reached` (after
-        optimistix's entries).
+        and numbers it keeps: `FitStatus.promote(solution.result)`), with our messages
+        for `nonlinear_divergence` and `nonfinite_input`, and `invalid_input` and
+        `tolerance_not_reached` (after optimistix's entries).
 
         `FitResult.status` holds an entry's number, the index of its name in
         [`fitting.STATUSES`][]: 0 (`successful`) when the solver met its tolerance.
         """
 
+        # The default solver's (`_solver.judge`), and optimistix's: no step lowers the
+        # loss. optimistix's text ("Nonlinear solve diverged.") reads as if the fit had
+        # run off; the float32 fits measured stopping so were at good fits, held up by
+        # rounding (`benchmarks/results/float32_status.md`).
+        nonlinear_divergence = (
+            "no step lowered the loss further, although the solver's test says it is not "
+            "at a minimum: the loss and its local model disagree (a start far from the "
+            "data), or rounding hides the remaining decrease (in float32: fit in float64 "
+            "with JAX's x64 mode on, or with a looser `tol`). The last iterate is "
+            "returned; `newton_step` estimates how far it is from the optimum."
+        )
         # Set by `fit_batch` for items it does not fit (lineax's own text for this entry
         # blames a bug upstream of a linear solver, which is not what happened).
         nonfinite_input = "the target has NaN or infinite values; it was not fitted."

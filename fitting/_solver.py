@@ -26,8 +26,9 @@ steps (a plateau: the slow slide of a fit along a nearly flat valley, which othe
 ran out of steps with its figures no longer moving), or when the loss is below `atol`;
 it reports
 `nonlinear_divergence` when no step can lower the loss although the gradient does not
-vanish, and `nonlinear_max_steps_reached` after `max_steps` steps. Step 0 only evaluates
-the model at the starting point (so `num_steps` counts it).
+vanish and the full Newton step would gain more than `rtol` of it (`newton_decrement`),
+and `nonlinear_max_steps_reached` after `max_steps` steps. Step 0 only evaluates the
+model at the starting point (so `num_steps` counts it).
 
 Besides optimistix's `num_steps` and `max_steps`, `solution.stats` holds the returned
 point's `hint` and `model` (loss, half gradient, half Hessian), so that the caller can
@@ -225,6 +226,15 @@ def damped_step(H: Float[Array, "D D"], g: Float[Array, " D"],
     return jax.lax.while_loop(undefined, raise_damping, (damping, solve(damping)))
 
 
+def newton_decrement(H: Float[Array, "D D"], g: Float[Array, " D"]) -> Float[Array, ""]:
+    """`g H^{-1} g`: the decrease of the loss that its local model (loss + 2 g d + d H d,
+    `g` and `H` half the gradient and Hessian) predicts for the full Newton step
+    `d = -H^{-1} g`; inf where `H` does not factor (not positive definite)."""
+    factor = jax.scipy.linalg.cho_factor(H)
+    value = g @ jax.scipy.linalg.cho_solve(factor, g)
+    return jnp.where(jnp.all(jnp.isfinite(factor[0])) & (value >= 0), value, jnp.inf)
+
+
 class Verdict(eqx.Module):
     """What a step decides (`judge`)."""
 
@@ -278,13 +288,20 @@ def judge(state, delta, raised, loss, rtol, atol, max_steps) -> Verdict:
     done = (small & state.small) | (accept & (loss <= atol)) | plateau
     # The damping cannot grow without bound: past 1e16 of the matrix's scale the steps
     # vanish in rounding and no step lowers the loss. That is a minimum to working
-    # precision only if the gradient vanishes too; otherwise the model and the loss
+    # precision if the gradient vanishes, and one to the tolerance if the full Newton
+    # step (the undamped model's best) would gain at most what a converged step may,
+    # rtol of the loss: float32 fits stop there when rounding hides so small a gain
+    # (`benchmarks/bench_float32_status.py`). Otherwise the model and the loss
     # disagree (e.g. from a start far outside the data) and the fit has failed.
     stuck = ~accept & (damping > 1e16)
     out_of_steps = state.num_steps + 1 >= max_steps
     flat_gradient = jnp.max(jnp.abs(g)) <= 1e-6 * jnp.maximum(1.0, jnp.sqrt(state.loss))
+    # Factored only when stuck (under `vmap`, every step: one small Cholesky).
+    no_gain = lambda H, g: jnp.full((), jnp.inf, g.dtype)
+    decrement = jax.lax.cond(stuck, newton_decrement, no_gain, H, g)
+    minimum = flat_gradient | (decrement <= rtol * state.loss + atol)
     result = optx.RESULTS.where(
-        stuck & ~flat_gradient,
+        stuck & ~minimum,
         optx.RESULTS.nonlinear_divergence,
         optx.RESULTS.where(
             ~(done | stuck) & out_of_steps,

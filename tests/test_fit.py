@@ -1859,6 +1859,41 @@ def test_a_plateau_of_the_loss_ends_the_fit_as_success(num_steps, new_loss, plat
     assert verdict.result == optx.RESULTS.successful
 
 
+@pytest.mark.parametrize("gain, definite, expected", [
+    (0.5, True, "successful"),  # the Newton step would gain half of rtol of the loss
+    (2.0, True, "nonlinear_divergence"),  # twice rtol of it: more to gain than rounding
+    (0.5, False, "nonlinear_divergence"),  # an indefinite Hessian: no Newton step
+])
+def test_a_fit_stuck_within_its_tolerance_of_the_newton_step_converged(gain, definite,
+                                                                       expected):
+    """The solver's rule (`_solver.judge`): when no step lowers the loss and the damping
+    passes its limit, the fit has converged if the full Newton step would gain at most
+    rtol of the loss (`gain` times that here; the decrement g H^-1 g by numpy), else it
+    failed. Float32 fits of smooth blobs stopped there at good fits and reported
+    divergence (`benchmarks/results/float32_status.md`)."""
+    from fitting._solver import judge
+
+    rng = np.random.default_rng(5)
+    a = rng.standard_normal((4, 4))
+    H = a @ a.T + np.eye(4) if definite else np.diag([3.0, 1.0, -0.5, 2.0])
+    direction = rng.standard_normal(4)
+    loss, rtol = 2.0, 1e-5
+    target = gain * rtol * loss
+    g = direction * np.sqrt(target / abs(direction @ np.linalg.solve(H, direction)))
+    if definite:
+        np.testing.assert_allclose(g @ np.linalg.solve(H, g), target, rtol=1e-12)
+    assert np.max(np.abs(g)) > 1e-5  # not a flat gradient (that rule is separate)
+    state = eqx.tree_at(lambda s: (s.gradient, s.hessian, s.damping),
+                        _judge_state(loss=loss, checkpoint=loss, num_steps=7),
+                        (jnp.asarray(g), jnp.asarray(H), jnp.asarray(1e16)))
+    delta = jnp.asarray(-1e-17 * g)
+    # The trial's loss is higher: rejected, and the damping passes 1e16.
+    verdict = judge(state, delta, state.damping, jnp.asarray(loss * (1 + 1e-12)),
+                    jnp.asarray(rtol), jnp.asarray(0.0), jnp.asarray(500))
+    assert not bool(verdict.accept) and bool(verdict.terminate)
+    assert verdict.result == getattr(optx.RESULTS, expected)
+
+
 def test_a_glyph_sliding_along_a_flat_valley_converges():
     """STIXGeneral 'a' at n = 32 (its outer contour, 400 samples by arc length from its
     first point, as `benchmarks/bench_fit_quality.py` samples it) crawls: every step
