@@ -1827,6 +1827,18 @@ def test_optimistix_solver_tolerance_and_smoothing_are_data():
     assert compiled.count == 0
 
 
+def test_fit_batch_has_the_defaults_of_fit():
+    """A batch item is fitted as `fit` fits it: the arguments both take have the same
+    defaults (fit_batch's step limit was 200 against fit's 500, and ended fits that
+    `fit` converges: `benchmarks/results/batch_step_limit.md`)."""
+    import inspect
+
+    one, batch = (inspect.signature(f).parameters for f in (fitting.fit, fitting.fit_batch))
+    shared = sorted(set(one) & set(batch) - {"scheme"})
+    assert "max_steps" in shared and "tol" in shared
+    assert {k: batch[k].default for k in shared} == {k: one[k].default for k in shared}
+
+
 def _judge_state(loss, checkpoint, num_steps):
     from fitting._solver import _State
 
