@@ -2,8 +2,8 @@
 float32 (JAX's default dtype, x64 off), and how close those fits are to the float64
 optimum next to them.
 
-    python benchmarks/bench_float32_status.py --before REV   # about 3 minutes on 2 cores
-    python benchmarks/bench_float32_status.py --smoke        # four fits, for CI
+    python benchmarks/bench_float32_status.py --before REV   # about 2 minutes on 2 cores
+    python benchmarks/bench_float32_status.py --smoke        # four fits
 
 In float32 the loss's rounding can hide a gain the solver's model still predicts: no
 step lowers the loss, the damping grows to its limit, and the solver stops. It used to
@@ -20,7 +20,8 @@ fresh interpreter with x64 on fits the same float32 samples in float64, started 
 this tree's float32 control points (`init`), to the default float64 `tol`: `rms32 /
 rms64` is how much the float32 stop loses against the optimum it was heading for, both
 figures measured by `fit`'s own two-sided RMS in float64 (the float32 control points
-measured again in float64, as a fit of 0 steps).
+measured again in float64, as a fit of 0 steps). The steps and RMS of the two versions
+are compared fit by fit.
 
 Writes `benchmarks/results/float32_status.json` and `.md` (`--output` sets the JSON
 path).
@@ -156,7 +157,8 @@ def markdown(run: dict) -> str:
                          f"{row['newton_step']:.2g} | {row['rms32'] / row['rms64']:.4f} |")
     ratios = sorted(row["rms32"] / row["rms64"] for row in run["rows"])
     lines += ["", f"Over all {len(ratios)} fits, `rms32 / rms64`: median "
-              f"{ratios[len(ratios) // 2]:.4f}, max {ratios[-1]:.4f}.", ""]
+              f"{ratios[len(ratios) // 2]:.4f}, max {ratios[-1]:.4f}. Fits whose steps or "
+              f"RMS differ between the versions: {run['differ']}.", ""]
     return "\n".join(lines)
 
 
@@ -182,6 +184,9 @@ def main():
              status64=wide["status64"])
         for i, (row, wide) in enumerate(zip(after, float64))
     ]
+    run["differ"] = sum(
+        len({(rows[i]["steps"], rows[i]["rms"]) for rows in results.values()}) > 1
+        for i in range(len(after)))
     run["counts"] = {name: dict(collections.Counter(r["status"] for r in rows))
                      for name, rows in results.items()}
     run["statuses"] = sorted({s for counts in run["counts"].values() for s in counts},

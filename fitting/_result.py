@@ -25,10 +25,11 @@ with warnings.catch_warnings():
         [`fitting.STATUSES`][]: 0 (`successful`) when the solver met its tolerance.
         """
 
-        # The default solver's (`_solver.judge`), and optimistix's: no step lowers the
-        # loss. optimistix's text ("Nonlinear solve diverged.") reads as if the fit had
-        # run off; the float32 fits measured stopping so were at good fits, held up by
-        # rounding (`benchmarks/results/float32_status.md`).
+        # The default solver's (`_solver.judge`) when no step lowers the loss (among
+        # optimistix's solvers only its root finders and Nelder-Mead use it). Its text
+        # ("Nonlinear solve diverged.") reads as if the fit had run off; the float32
+        # fits measured stopping so were at good fits, held up by rounding
+        # (`benchmarks/results/float32_status.md`).
         nonlinear_divergence = (
             "no step lowered the loss further, although the solver's test says it is not "
             "at a minimum: the loss and its local model disagree (a start far from the "
@@ -113,8 +114,9 @@ class FitResult(eqx.Module):
     - `params_held`: with `fit_params` (and a profile, the default solver): True where
       the fit with the parameters held at their start was returned instead of the
       joint fit, because its two-sided `rms` was lower (or the joint fit's was not a
-      number): the start's parameter values (the scheme's as given) with that fit's
-      control points and errors. False where the fitted values are returned. None when no parameter is fitted, or with
+      number): the start's parameter values (the scheme's as given, up to the rounding
+      of the fit's bijection onto their range) with that fit's control points and
+      errors. False where the fitted values are returned. None when no parameter is fitted, or with
       `profile=0` or an optimistix `solver` (no fit at the start to compare with).
     - `newton_step`: how far the control points still are from the exact optimum, as
       the local model of the loss estimates it: the largest control-point coordinate

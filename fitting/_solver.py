@@ -26,7 +26,8 @@ steps (a plateau: the slow slide of a fit along a nearly flat valley, which othe
 ran out of steps with its figures no longer moving), or when the loss is below `atol`;
 it reports
 `nonlinear_divergence` when no step can lower the loss although the gradient does not
-vanish and the full Newton step would gain more than `rtol` of it (`newton_decrement`),
+vanish and the full Newton step would gain more than `rtol` of it plus `atol`
+(`newton_decrement`),
 and `nonlinear_max_steps_reached` after `max_steps` steps. Step 0 only evaluates the
 model at the starting point (so `num_steps` counts it).
 

@@ -102,6 +102,15 @@ def _scheme_text(name: str, scheme) -> str:
     return f"{name} ({', '.join(f'{t}={float(v):.6g}' for t, v in values.items())})"
 
 
+def _fitted_scheme_text(name: str, result) -> str:
+    """`_scheme_text` of a fit's scheme, saying when `fit_params` kept the given values
+    (`FitResult.params_held`)."""
+    held = result.params_held is not None and bool(result.params_held)
+    return _scheme_text(name, result.scheme) + (
+        " (kept at the start: its fit had the lower rms error, or the only finite one)"
+        if held else "")
+
+
 def _option_help(parameters, default=None) -> str:
     """`four-point tension (default 1/16; any finite w, converges for -1/2 < w < 1/2)`,
     from the declarations."""
@@ -645,10 +654,7 @@ def _fit(args) -> int:
             print(f"  corners    {int(np.sum(result.creases))} (creased control points)")
         elapsed = time.perf_counter() - start
         if args.fit_params:
-            held = result.params_held is not None and bool(result.params_held)
-            print(f"  scheme     {_scheme_text(args.scheme, result.scheme)}"
-                  + (" (kept at the start: the fitted values gave a higher rms error)"
-                     if held else ""))
+            print(f"  scheme     {_fitted_scheme_text(args.scheme, result)}")
         # Contours whose sample counts share a bucket reuse the first one's program.
         _print_errors(result, size, elapsed, compiles())
         if pixels:

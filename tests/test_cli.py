@@ -249,6 +249,23 @@ def test_fit_that_does_not_converge_exits_1_and_says_which(capsys, tmp_path):
     assert ("kept at the start" in out) == saved["info"]["params_held"]
 
 
+@pytest.mark.parametrize("held, kept", [(True, True), (False, False), (None, False)])
+def test_the_scheme_line_says_when_fit_params_kept_the_start(held, kept):
+    """`--fit-params` prints the scheme with its values, and says when they are the
+    given ones because the fit with them held had the lower error
+    (`FitResult.params_held`; the run above covers False, the horse of
+    `tests/test_fit.py` is held but 20 s to compile on the command line)."""
+    from types import SimpleNamespace
+
+    from jaxsubdiv import _cli
+
+    result = SimpleNamespace(scheme=js.FourPoint(), params_held=None if held is None
+                             else np.asarray(held))
+    line = _cli._fitted_scheme_text("four-point", result)
+    assert line.startswith("four-point (w=0.0625)")
+    assert ("kept at the start" in line) == kept
+
+
 def test_demo_fits_prints_its_error_and_writes_a_picture(capsys, tmp_path):
     png = tmp_path / "demo.png"
     status, out, err = cli(capsys, "demo", "--n", 16, "--samples", 200, "-o", png)
