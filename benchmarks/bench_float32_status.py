@@ -9,7 +9,7 @@ In float32 the loss's rounding can hide a gain the solver's model still predicts
 step lowers the loss, the damping grows to its limit, and the solver stops. It used to
 call every such stop `nonlinear_divergence` unless the gradient was below 1e-6; since
 2026-12-07 it is a success when the full Newton step would gain at most `tol` of the
-loss (`fitting._solver.judge`). The iterates are the same either way (the solver stops
+loss (`fitting._solver.settled`). The iterates are the same either way (the solver stops
 there in both): only the status differs.
 
 Each tree (`--before REV` extracted, and this work tree) fits every case in a fresh

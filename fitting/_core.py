@@ -31,7 +31,7 @@ from ._init import canonical_order, corner_creases, initial_control
 from ._objective import FitData, Objective, curve_errors
 from ._params import from_unconstrained, to_unconstrained
 from ._result import FitResult, status_code
-from ._solver import FootPointLevenbergMarquardt
+from ._solver import FootPointLevenbergMarquardt, settled
 from ._threads import one_blas_thread
 
 
@@ -155,8 +155,10 @@ def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solv
     )
     # The default solver reports its foot points and model at the returned point.
     newton = newton_step(objective, sol.value, problem.data, sol.stats.get("model"))
+    result = (settled(sol.result, sol.stats["model"], solver.rtol, solver.atol)
+              if own_solver else sol.result)
     solved = solved_from(objective, problem, sol.value, hint=sol.stats.get("hint"),
-                         num_steps=sol.stats["num_steps"], status=status_code(sol.result),
+                         num_steps=sol.stats["num_steps"], status=status_code(result),
                          newton=newton)
     return eqx.tree_at(lambda s: s.at_start, solved, at_start, is_leaf=lambda x: x is None)
 
@@ -475,9 +477,9 @@ def profile_start(objective: Objective, data: FitData, y0: dict, tol, max_steps)
         model = sol.stats["model"]
         loss = jnp.where(jnp.isfinite(model[0]), model[0], jnp.inf)
         newton = newton_step(fixed, sol.value, at, model)
+        status = status_code(settled(sol.result, model, solver.rtol, solver.atol))
         return dict(control=sol.value["control"], loss=loss, hint=sol.stats["hint"],
-                    num_steps=sol.stats["num_steps"], status=status_code(sol.result),
-                    newton=newton)
+                    num_steps=sol.stats["num_steps"], status=status, newton=newton)
 
     start = jnp.arange(1 + len(grid[names[0]])) == 0
     # Not differentiated: derivatives through the map would run the implicit solves of

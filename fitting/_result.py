@@ -25,7 +25,7 @@ with warnings.catch_warnings():
         [`fitting.STATUSES`][]: 0 (`successful`) when the solver met its tolerance.
         """
 
-        # The default solver's (`_solver.judge`) when no step lowers the loss (among
+        # The default solver's when no step lowers the loss (`_solver.judge`; among
         # optimistix's solvers only its root finders and Nelder-Mead use it). Its text
         # ("Nonlinear solve diverged.") reads as if the fit had run off; the float32
         # fits measured stopping so were at good fits, held up by rounding

@@ -26,9 +26,9 @@ steps (a plateau: the slow slide of a fit along a nearly flat valley, which othe
 ran out of steps with its figures no longer moving), or when the loss is below `atol`;
 it reports
 `nonlinear_divergence` when no step can lower the loss although the gradient does not
-vanish and the full Newton step would gain more than `rtol` of it plus `atol`
-(`newton_decrement`),
-and `nonlinear_max_steps_reached` after `max_steps` steps. Step 0 only evaluates the
+vanish (which `settled` makes a success where the full Newton step would gain at most
+`rtol` of the loss plus `atol`), and `nonlinear_max_steps_reached` after `max_steps`
+steps. Step 0 only evaluates the
 model at the starting point (so `num_steps` counts it).
 
 Besides optimistix's `num_steps` and `max_steps`, `solution.stats` holds the returned
@@ -236,6 +236,24 @@ def newton_decrement(H: Float[Array, "D D"], g: Float[Array, " D"]) -> Float[Arr
     return jnp.where(jnp.all(jnp.isfinite(factor[0])) & (value >= 0), value, jnp.inf)
 
 
+def settled(result: optx.RESULTS, model, rtol, atol) -> optx.RESULTS:
+    """The result of a solve by `FootPointLevenbergMarquardt`, with a stop for want of a
+    step that lowers the loss (`nonlinear_divergence`) made a success where the full
+    Newton step at the returned point would gain at most `rtol` of the loss plus `atol`
+    (`newton_decrement`; `model`: the solution's `stats["model"]`, the loss and its half
+    gradient and Hessian there): a minimum to the tolerance, which rounding keeps the
+    steps from confirming (float32 fits: `benchmarks/results/float32_status.md`).
+
+    After the solver's loop, not in it: a Cholesky in the loop's body (a `lax.cond`,
+    which `vmap` turns into a select) made a jitted `vmap` of `fit` hang in XLA on its
+    first call (n = 48, 8 outlines, 2026-12-07; the same program without it ran).
+    """
+    loss, gradient, hessian = model
+    within = newton_decrement(hessian, gradient) <= rtol * loss + atol
+    stopped = result == optx.RESULTS.nonlinear_divergence
+    return optx.RESULTS.where(stopped & within, optx.RESULTS.successful, result)
+
+
 class Verdict(eqx.Module):
     """What a step decides (`judge`)."""
 
@@ -289,20 +307,14 @@ def judge(state, delta, raised, loss, rtol, atol, max_steps) -> Verdict:
     done = (small & state.small) | (accept & (loss <= atol)) | plateau
     # The damping cannot grow without bound: past 1e16 of the matrix's scale the steps
     # vanish in rounding and no step lowers the loss. That is a minimum to working
-    # precision if the gradient vanishes, and one to the tolerance if the full Newton
-    # step (the undamped model's best) would gain at most what a converged step may,
-    # rtol of the loss: float32 fits stop there when rounding hides so small a gain
-    # (`benchmarks/bench_float32_status.py`). Otherwise the model and the loss
-    # disagree (e.g. from a start far outside the data) and the fit has failed.
+    # precision if the gradient vanishes; otherwise the model and the loss disagree
+    # (e.g. from a start far outside the data) and the fit has failed, or rounding
+    # hides the last gain (`settled` tells that from the returned point).
     stuck = ~accept & (damping > 1e16)
     out_of_steps = state.num_steps + 1 >= max_steps
     flat_gradient = jnp.max(jnp.abs(g)) <= 1e-6 * jnp.maximum(1.0, jnp.sqrt(state.loss))
-    # Factored only when stuck (under `vmap`, every step: one small Cholesky).
-    no_gain = lambda H, g: jnp.full((), jnp.inf, g.dtype)
-    decrement = jax.lax.cond(stuck, newton_decrement, no_gain, H, g)
-    minimum = flat_gradient | (decrement <= rtol * state.loss + atol)
     result = optx.RESULTS.where(
-        stuck & ~minimum,
+        stuck & ~flat_gradient,
         optx.RESULTS.nonlinear_divergence,
         optx.RESULTS.where(
             ~(done | stuck) & out_of_steps,
