@@ -1,0 +1,112 @@
+"""What `fit` reports from bad starts: status, error and the Newton step left.
+
+    python benchmarks/bench_bad_starts.py           # about a minute on 2 cores
+    python benchmarks/bench_bad_starts.py --smoke   # one glyph, two starts
+
+Issue #14 asks that a fit from a hopeless start not be reported as converged. Each
+glyph outline (DejaVu Sans 'S', 'g', '&' and 'a', 300 samples by arc length) is fitted
+with 16 control points, closed cubic B-spline, float64, from its default start and
+from four given `init`s built from 16 of its samples (every 18th): moved 10 sizes
+diagonally, moved 10 sizes along x, scaled 10x about their centre, and a small circle
+10 sizes away. Recorded: the status, steps, two-sided RMS and `newton_step` (the
+control points' distance to the optimum the local model estimates; inf where the
+Hessian is not positive definite), both in units of the outline's size (the diagonal of
+its bounding box), against the default start's RMS.
+
+Writes `benchmarks/results/bad_starts.json` and `.md` (`--output` sets the JSON path).
+"""
+
+import pathlib
+import sys
+
+
+BENCH = pathlib.Path(__file__).resolve().parent
+sys.path[:0] = [str(BENCH), str(BENCH.parent)]
+import _common  # noqa: E402
+
+
+def glyph(char, m=300, family="DejaVu Sans"):
+    import numpy as np
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import TextPath
+
+    path = TextPath((0, 0), char, size=1.0, prop=FontProperties(family=family))
+    outer = max(path.to_polygons(closed_only=True), key=lambda p: np.ptp(p, axis=0).prod())
+    if np.allclose(outer[0], outer[-1]):
+        outer = outer[:-1]
+    closed = np.vstack([outer, outer[:1]])
+    s = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(closed, axis=0), axis=1))])
+    t = np.linspace(0, s[-1], m, endpoint=False)
+    return np.stack([np.interp(t, s, closed[:, k]) for k in range(2)], -1)
+
+
+def starts(samples, size):
+    import numpy as np
+
+    c = samples[:: len(samples) // 16][:16]
+    centre = c.mean(0)
+    angle = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+    circle = 0.3 * size * np.stack([np.cos(angle), np.sin(angle)], -1)
+    return {"default": None, "moved 10 sizes": c + 10 * size,
+            "moved 10 sizes along x": c + np.array([10 * size, 0.0]),
+            "scaled 10x": centre + 10 * (c - centre),
+            "circle 10 sizes away": centre + 10 * size + circle}
+
+
+def markdown(run: dict) -> str:
+    lines = [
+        "# `fit` from bad starts (`bench_bad_starts.py`)", "",
+        f"{run['date']}; {run['machine']}; load {run['load_start']} at start, "
+        f"{run['load_end']} at end (1, 5, 15 min); jax {run['jax']}; `fitting` at "
+        f"{run['commit']}.", "",
+        __doc__.split("\n\n", 2)[2].split("\n\nWrites")[0].replace("\n", " "), "",
+        "| glyph | start | status | steps | RMS / size | RMS / default start's "
+        "| Newton step / size |", "| --- | --- | --- | ---: | ---: | ---: | ---: |",
+    ]
+    for row in run["rows"]:
+        lines.append(f"| {row['glyph']} | {row['start']} | {row['status']} | {row['steps']} | "
+                     f"{row['rms']:.3g} | {row['rms_ratio']:.3g} | {row['newton']:.3g} |")
+    bad = [r for r in run["rows"] if r["start"] != "default"]
+    fooled = [r for r in bad if r["status"] == "successful" and r["rms_ratio"] > 2]
+    lines += ["", f"Given starts reported `successful` with an RMS above twice the default "
+              f"start's: {len(fooled)} of {len(bad)}.", ""]
+    return "\n".join(lines)
+
+
+def main():
+    args, output = _common.arguments(__doc__, "bad_starts")
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import numpy as np
+    from bench_analysis import _commit
+
+    import fitting
+    import jaxsubdiv as js
+
+    run = _common.header(jax=jax.__version__, commit=_commit("HEAD"))
+    rows = []
+    for char in "S" if args.smoke else "Sg&a":
+        samples = glyph(char)
+        size = float(np.linalg.norm(np.ptp(samples, axis=0)))
+        default_rms = None
+        chosen = starts(samples, size)
+        if args.smoke:
+            chosen = {k: chosen[k] for k in ("default", "scaled 10x")}
+        for name, init in chosen.items():
+            r = fitting.fit(samples, js.CubicBSpline(), 16, init=init, on_failure="ignore")
+            rms = float(r.rms) / size
+            default_rms = rms if init is None else default_rms
+            rows.append(dict(glyph=f"DejaVu Sans {char!r}", start=name,
+                             status=fitting.STATUSES[int(r.status)], steps=int(r.num_steps),
+                             rms=rms, rms_ratio=rms / default_rms,
+                             newton=float(r.newton_step) / size))
+            print(rows[-1], flush=True)
+    run["rows"] = rows
+    run["load_end"] = _common.load()
+    _common.write_results(output, run, markdown)
+    print(markdown(run))
+
+
+if __name__ == "__main__":
+    main()
