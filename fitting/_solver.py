@@ -246,10 +246,10 @@ def settled(result: optx.RESULTS, model, rtol, atol) -> optx.RESULTS:
 
     After the solver's loop, not in it: a Cholesky in the loop's body (a `lax.cond`,
     which `vmap` turns into a select) made a jitted `vmap` of `fit` hang in XLA on its
-    first call (n = 48, 8 outlines, 2026-12-07; the same program without it ran).
+    first call (n = 48, 8 outlines: `benchmarks/results/vmap_fit.md`).
     """
     loss, gradient, hessian = model
-    within = newton_decrement(hessian, gradient) <= rtol * loss + atol
+    within = jnp.isfinite(loss) & (newton_decrement(hessian, gradient) <= rtol * loss + atol)
     stopped = result == optx.RESULTS.nonlinear_divergence
     return optx.RESULTS.where(stopped & within, optx.RESULTS.successful, result)
 
@@ -312,7 +312,9 @@ def judge(state, delta, raised, loss, rtol, atol, max_steps) -> Verdict:
     # hides the last gain (`settled` tells that from the returned point).
     stuck = ~accept & (damping > 1e16)
     out_of_steps = state.num_steps + 1 >= max_steps
-    flat_gradient = jnp.max(jnp.abs(g)) <= 1e-6 * jnp.maximum(1.0, jnp.sqrt(state.loss))
+    # (A loss that overflowed to inf is no minimum: inf <= inf would say it is.)
+    flat_gradient = (jnp.isfinite(state.loss)
+                     & (jnp.max(jnp.abs(g)) <= 1e-6 * jnp.maximum(1.0, jnp.sqrt(state.loss))))
     result = optx.RESULTS.where(
         stuck & ~flat_gradient,
         optx.RESULTS.nonlinear_divergence,

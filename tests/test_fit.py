@@ -1903,6 +1903,26 @@ def test_a_fit_stuck_within_its_tolerance_of_the_newton_step_converged(gain, def
     assert settle(optx.RESULTS.nonlinear_divergence) == getattr(optx.RESULTS, expected)
     for other in ("successful", "nonlinear_max_steps_reached"):
         assert settle(getattr(optx.RESULTS, other)) == getattr(optx.RESULTS, other)
+    # A loss that overflowed is no minimum (inf <= rtol * inf would say it is).
+    overflowed = (jnp.asarray(jnp.inf), *model[1:])
+    assert (settled(optx.RESULTS.nonlinear_divergence, overflowed, jnp.asarray(rtol), 0.0)
+            == optx.RESULTS.nonlinear_divergence)
+
+
+def test_a_stuck_fit_with_an_overflowed_loss_did_not_converge():
+    """`_solver.judge`: no step lowers the loss, the damping passes its limit, and the
+    loss is inf (a start 1e19 times too large in float32): a failure, not the flat
+    gradient of a minimum (1e-6 of sqrt(inf) let any gradient pass, and such a fit
+    reported converged with an infinite RMS; found in review)."""
+    from fitting._solver import judge
+
+    state = eqx.tree_at(lambda s: (s.gradient, s.damping),
+                        _judge_state(loss=jnp.inf, checkpoint=jnp.inf, num_steps=7),
+                        (jnp.array([6e20, 1.0]), jnp.asarray(1e16)))
+    verdict = judge(state, jnp.array([-1e-30, 0.0]), state.damping, jnp.asarray(jnp.inf),
+                    jnp.asarray(1e-5), jnp.asarray(0.0), jnp.asarray(500))
+    assert not bool(verdict.accept) and bool(verdict.terminate)
+    assert verdict.result == optx.RESULTS.nonlinear_divergence
 
 
 def test_a_glyph_sliding_along_a_flat_valley_converges():
