@@ -64,6 +64,20 @@ def versions(before: str | None, scratch: pathlib.Path) -> dict:
     return {"before": (_extract(before, scratch), _commit(before)), **after}
 
 
+def blob(seed: int, m: int):
+    """A smooth random closed outline of `m` samples (numpy, float64): a unit circle's
+    radius perturbed by three harmonics (2, 3, 5) of amplitudes in [0.05, 0.25) and
+    random phases, from `numpy.random.default_rng(seed)`."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 2 * np.pi, m, endpoint=False)
+    a, phase = rng.uniform(0.05, 0.25, 3), rng.uniform(0, 6, 3)
+    r = (1 + a[0] * np.sin(3 * t + phase[0]) + a[1] * np.cos(5 * t + phase[1])
+         + a[2] * np.sin(2 * t + phase[2]))
+    return np.stack([r * np.cos(t), r * np.sin(t)], -1)
+
+
 def header(**extra) -> dict:
     """The run's date (UTC), machine and load average at the start (1, 5, 15 min);
     record `load_end` with `load()` when the run ends."""

@@ -27,17 +27,6 @@ import _common  # noqa: E402
 LIMITS = (200, 500)
 
 
-def blob(seed, m=400):
-    import numpy as np
-
-    rng = np.random.default_rng(seed)
-    t = np.linspace(0, 2 * np.pi, m, endpoint=False)
-    a, phase = rng.uniform(0.05, 0.25, 3), rng.uniform(0, 6, 3)
-    r = (1 + a[0] * np.sin(3 * t + phase[0]) + a[1] * np.cos(5 * t + phase[1])
-         + a[2] * np.sin(2 * t + phase[2]))
-    return np.stack([r * np.cos(t), r * np.sin(t)], -1)
-
-
 def markdown(run: dict) -> str:
     lines = [
         "# `fit_batch`'s step limit (`bench_batch_step_limit.py`)", "",
@@ -66,7 +55,7 @@ def main():
     import jaxsubdiv as js
 
     run = _common.header(jax=jax.__version__)
-    targets = np.stack([blob(seed) for seed in range(32)])
+    targets = np.stack([_common.blob(seed, 400) for seed in range(32)])
     rows = []
     for n in (16,) if args.smoke else (16, 32, 48):
         call = lambda steps: jax.block_until_ready(fitting.fit_batch(

@@ -43,7 +43,7 @@ import _common  # noqa: E402
 FONTS = ("DejaVu Sans", "DejaVu Serif")
 GLYPHS = "S&gQ8a"
 
-CASES_CODE = r'''
+CASES_CODE = f"BENCH = {str(BENCH)!r}\n" + r'''
 import numpy as np
 
 def resample_closed(points, m):
@@ -53,12 +53,10 @@ def resample_closed(points, m):
     return np.stack([np.interp(t, s, closed[:, k]) for k in range(2)], -1)
 
 def blob(seed, m=120):
-    rng = np.random.default_rng(seed)
-    t = np.linspace(0, 2 * np.pi, m, endpoint=False)
-    a, phase = rng.uniform(0.05, 0.25, 3), rng.uniform(0, 6, 3)
-    r = (1 + a[0] * np.sin(3 * t + phase[0]) + a[1] * np.cos(5 * t + phase[1])
-         + a[2] * np.sin(2 * t + phase[2]))
-    return np.stack([r * np.cos(t), r * np.sin(t)], -1)
+    import sys
+    sys.path.insert(0, BENCH)
+    from _common import blob as smooth_blob
+    return smooth_blob(seed, m)
 
 def glyph(family, char, m=400):
     from matplotlib.font_manager import FontProperties

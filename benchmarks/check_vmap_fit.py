@@ -28,22 +28,15 @@ sys.path[:0] = [str(BENCH), str(BENCH.parent)]
 import _common  # noqa: E402
 
 
-CODE = r'''
+CODE = f"import sys\nsys.path.insert(0, {str(BENCH)!r})\n" + r'''
 import numpy as np
 import jax
 jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp
 import jaxsubdiv as js, fitting
+from _common import blob
 
-def blob(seed, m=400):
-    rng = np.random.default_rng(seed)
-    t = np.linspace(0, 2 * np.pi, m, endpoint=False)
-    a, phase = rng.uniform(0.05, 0.25, 3), rng.uniform(0, 6, 3)
-    r = (1 + a[0] * np.sin(3 * t + phase[0]) + a[1] * np.cos(5 * t + phase[1])
-         + a[2] * np.sin(2 * t + phase[2]))
-    return np.stack([r * np.cos(t), r * np.sin(t)], -1)
-
-targets = jnp.asarray(np.stack([blob(seed) for seed in range(8)]))
+targets = jnp.asarray(np.stack([blob(seed, 400) for seed in range(8)]))
 call = jax.jit(jax.vmap(lambda t: fitting.fit(t, js.CubicBSpline(), 48).rms))
 print(float(jnp.max(jax.block_until_ready(call(targets)))))
 '''
