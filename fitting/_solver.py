@@ -28,8 +28,7 @@ it reports
 `nonlinear_divergence` when no step can lower the loss although the gradient does not
 vanish (which `settled` makes a success where the full Newton step would gain at most
 `rtol` of the loss plus `atol`), and `nonlinear_max_steps_reached` after `max_steps`
-steps. Step 0 only evaluates the
-model at the starting point (so `num_steps` counts it).
+steps. Step 0 only evaluates the model at the starting point (so `num_steps` counts it).
 
 Besides optimistix's `num_steps` and `max_steps`, `solution.stats` holds the returned
 point's `hint` and `model` (loss, half gradient, half Hessian), so that the caller can
