@@ -31,7 +31,7 @@ from ._init import canonical_order, corner_creases, initial_control
 from ._objective import FitData, Objective, curve_errors
 from ._params import from_unconstrained, to_unconstrained
 from ._result import FitResult, status_code
-from ._solver import FootPointLevenbergMarquardt, settled
+from ._solver import FootPointLevenbergMarquardt, newton_solve, settled
 from ._threads import one_blas_thread
 
 
@@ -534,11 +534,10 @@ def newton_step(objective: Objective, y, data: FitData, model=None) -> Float[Arr
     if model is None:
         model = objective.quadratic_model(y, jax.lax.stop_gradient(data))
     _, gradient, hessian = jax.lax.stop_gradient(model)
-    factor = jax.scipy.linalg.cho_factor(hessian)
-    step = jax.scipy.linalg.cho_solve(factor, gradient)
+    step, definite = newton_solve(hessian, gradient)
     # ravel_pytree puts the control points first.
     largest = jnp.max(jnp.abs(step[: y["control"].size]))
-    return jnp.where(jnp.all(jnp.isfinite(factor[0])), largest, jnp.inf)
+    return jnp.where(definite, largest, jnp.inf)
 
 
 def solved_structure(scheme, objective: Objective, counted: bool):

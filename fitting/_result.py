@@ -116,8 +116,9 @@ class FitResult(eqx.Module):
       joint fit, because its two-sided `rms` was lower (or the joint fit's was not a
       number): the start's parameter values (the scheme's as given, up to the rounding
       of the fit's bijection onto their range) with that fit's control points and
-      errors. False where the fitted values are returned. None when no parameter is fitted, or with
-      `profile=0` or an optimistix `solver` (no fit at the start to compare with).
+      errors. False where the fitted values are returned. None when no parameter is
+      fitted, or with `profile=0` or an optimistix `solver` (no fit at the start to
+      compare with).
     - `newton_step`: how far the control points still are from the exact optimum, as
       the local model of the loss estimates it: the largest control-point coordinate
       of the Newton step $-H^{-1} g$ at the returned point (a step in all the unknowns,

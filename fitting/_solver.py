@@ -226,13 +226,21 @@ def damped_step(H: Float[Array, "D D"], g: Float[Array, " D"],
     return jax.lax.while_loop(undefined, raise_damping, (damping, solve(damping)))
 
 
-def newton_decrement(H: Float[Array, "D D"], g: Float[Array, " D"]) -> Float[Array, ""]:
-    """`g H^{-1} g`: the decrease of the loss that its local model (loss + 2 g d + d H d,
-    `g` and `H` half the gradient and Hessian) predicts for the full Newton step
-    `d = -H^{-1} g`; inf where `H` does not factor (not positive definite)."""
+def newton_solve(H: Float[Array, "D D"], g: Float[Array, " D"]):
+    """`(H^{-1} g, definite)`: minus the Newton step of the local model (loss + 2 g d +
+    d H d, `g` and `H` half the gradient and Hessian), by Cholesky, and whether `H`
+    factored (positive definite; else the step is not finite)."""
     factor = jax.scipy.linalg.cho_factor(H)
-    value = g @ jax.scipy.linalg.cho_solve(factor, g)
-    return jnp.where(jnp.all(jnp.isfinite(factor[0])) & (value >= 0), value, jnp.inf)
+    return jax.scipy.linalg.cho_solve(factor, g), jnp.all(jnp.isfinite(factor[0]))
+
+
+def newton_decrement(H: Float[Array, "D D"], g: Float[Array, " D"]) -> Float[Array, ""]:
+    """`g H^{-1} g`: the decrease of the loss that its local model predicts for the full
+    Newton step `d = -H^{-1} g` (`newton_solve`); inf where `H` does not factor (not
+    positive definite)."""
+    step, definite = newton_solve(H, g)
+    value = g @ step
+    return jnp.where(definite & (value >= 0), value, jnp.inf)
 
 
 def settled(result: optx.RESULTS, model, rtol, atol) -> optx.RESULTS:
