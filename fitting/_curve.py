@@ -591,9 +591,12 @@ def _smallest_outside(rows, columns, norms, near, excluded):
 
 
 def safe_sqrt(x: Float[Array, "..."]) -> Float[Array, "..."]:
-    """The square root with a finite derivative (zero) at 0 (a double `where`: no 0/0)."""
+    """The square root with a finite derivative (zero) at 0 (a double `where`: no 0/0).
+
+    NaN stays NaN (an overflowed fit's distances must not read as zero errors)."""
     positive = x > 0
-    return jnp.where(positive, jnp.sqrt(jnp.where(positive, x, 1.0)), 0.0)
+    return jnp.where(positive, jnp.sqrt(jnp.where(positive, x, 1.0)),
+                     jnp.where(jnp.isnan(x), x, 0.0))
 
 
 def safe_norm(x: Float[Array, "m d"]) -> Float[Array, " m"]:

@@ -1969,6 +1969,33 @@ def test_a_stuck_fit_with_an_overflowed_loss_did_not_converge():
     assert verdict.result == optx.RESULTS.nonlinear_divergence
 
 
+def test_safe_sqrt_keeps_nan_and_has_a_zero_derivative_at_zero():
+    """`_curve.safe_sqrt` (every distance the fit reports goes through it): the square
+    root where positive, 0 with derivative 0 at 0, and NaN where its input is NaN (it
+    returned 0 there, so an overflowed fit reported an RMS of exactly 0)."""
+    from fitting._curve import safe_sqrt
+
+    x = jnp.array([4.0, 0.0, jnp.nan, 2.25])
+    np.testing.assert_array_equal(np.asarray(safe_sqrt(x)), [2.0, 0.0, np.nan, 1.5])
+    slopes = np.asarray(jax.vmap(jax.grad(safe_sqrt))(x))
+    np.testing.assert_allclose(slopes[[0, 1, 3]], [0.25, 0.0, 1 / 3])
+
+
+def test_an_overflowed_fit_reports_no_zero_errors():
+    """A start 1e200 times the outline's size (float64): the curve's evaluation
+    overflows and the fit stops as a divergence. Its errors are unknown (NaN) or
+    infinite, never 0: they read 0.0 while the distances' NaN was mapped to 0."""
+    t = np.linspace(0, 2 * np.pi, 60, endpoint=False)
+    target = np.stack([np.cos(t), 0.6 * np.sin(t)], -1)
+    init = 1e200 * np.stack([np.cos(t[::6]), np.sin(t[::6])], -1)
+    result = fitting.fit(target, js.CubicBSpline(), 10, init=init, on_failure="ignore")
+    assert int(result.status) != 0
+    for name in ("rms", "max_error", "rms_target_to_curve", "rms_curve_to_target",
+                 "max_target_to_curve", "max_curve_to_target"):
+        value = float(getattr(result, name))
+        assert not value < 1e100, (name, value)
+
+
 def test_a_glyph_sliding_along_a_flat_valley_converges():
     """STIXGeneral 'a' at n = 32 (its outer contour, 400 samples by arc length from its
     first point, as `benchmarks/bench_fit_quality.py` samples it) crawls: every step
