@@ -20,7 +20,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
-from jaxtyping import Array, Float
+from jaxtyping import Array, Float, Int
 
 import jaxsubdiv as js
 from jaxsubdiv.validation import is_traced
@@ -30,7 +30,7 @@ from ._curve import curve_samples
 from ._init import canonical_order, corner_creases, initial_control
 from ._objective import FitData, Objective, curve_errors
 from ._params import from_unconstrained, to_unconstrained
-from ._result import FitResult, status_code
+from ._result import FitResult, FitStatus, status_code
 from ._solver import FootPointLevenbergMarquardt, newton_solve, settled
 from ._threads import one_blas_thread
 
@@ -157,9 +157,17 @@ def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solv
     newton = newton_step(objective, sol.value, problem.data, sol.stats.get("model"))
     result = (settled(sol.result, sol.stats["model"], solver.rtol, solver.atol)
               if own_solver else sol.result)
+    status = status_code(result)
+    if problem.default_start is not None:
+        loss = (sol.stats["model"][0] if own_solver
+                else loss_at(objective, sol.value, problem.data))
+        status = poor_start(objective, problem, loss, status)
+        if at_start is not None:
+            at_start = eqx.tree_at(lambda s: s.status, at_start,
+                                   poor_start(objective, problem, held["loss"],
+                                              at_start.status))
     solved = solved_from(objective, problem, sol.value, hint=sol.stats.get("hint"),
-                         num_steps=sol.stats["num_steps"], status=status_code(result),
-                         newton=newton)
+                         num_steps=sol.stats["num_steps"], status=status, newton=newton)
     return eqx.tree_at(lambda s: s.at_start, solved, at_start, is_leaf=lambda x: x is None)
 
 
@@ -173,6 +181,8 @@ class Problem(eqx.Module):
     center: Array
     scale: Array
     valid_count: Array
+    # With a given `init`: the default start (the linear fit), for `poor_start`.
+    default_start: dict | None = None
 
 
 def set_up(data: FitData, init, objective: Objective) -> Problem:
@@ -229,15 +239,33 @@ def set_up(data: FitData, init, objective: Objective) -> Problem:
                      root_smoothing=data.root_smoothing,
                      basis=None if objective.names else basis, count=data.count,
                      corners=data.corners, creases=creases)
-    if init is None:
-        P0 = initial_control(scaled.target, weights, basis[0], objective.boundary,
+    linear = initial_control(scaled.target, weights, basis[0], objective.boundary,
                              data.root_smoothing**2, position, creases)
-    else:
-        P0 = (init - center) / scale
-    y0 = {"control": jax.lax.stop_gradient(objective.unknowns(P0)),
-          "params": to_unconstrained(scheme, objective.names)}
-    return Problem(data=scaled, start=y0, center=center, scale=scale,
-                   valid_count=valid_count)
+    params = to_unconstrained(scheme, objective.names)
+    start = lambda P: {"control": jax.lax.stop_gradient(objective.unknowns(P)),
+                       "params": params}
+    if init is None:
+        return Problem(data=scaled, start=start(linear), center=center, scale=scale,
+                       valid_count=valid_count)
+    return Problem(data=scaled, start=start((init - center) / scale), center=center,
+                   scale=scale, valid_count=valid_count, default_start=start(linear))
+
+
+def loss_at(objective: Objective, y, data: FitData) -> Float[Array, ""]:
+    """The fit's loss (the sum of squared residuals, feet found afresh) at `y`."""
+    return sum(jnp.sum(r**2) for r in jax.tree.leaves(objective.residuals(y, data)))
+
+
+def poor_start(objective: Objective, problem: Problem, loss, status) -> Int[Array, ""]:
+    """`status`, made `poor_local_minimum` where it is success but the fit from the given
+    `init` ended at a higher `loss` than the default start has before any step (the
+    linear fit at the samples' chord-length positions, `problem.default_start`): a
+    local minimum that the solver cannot leave, worse than a start it could have taken
+    (`benchmarks/results/bad_starts.md`). Not differentiated: a diagnostic."""
+    default = loss_at(objective, jax.lax.stop_gradient(problem.default_start),
+                      jax.lax.stop_gradient(problem.data))
+    poor = (status == 0) & (jax.lax.stop_gradient(loss) > default)
+    return jnp.where(poor, status_code(FitStatus.poor_local_minimum), status)
 
 
 def solved_from(objective: Objective, problem: Problem, value, *, hint, num_steps, status,
@@ -488,7 +516,7 @@ def profile_start(objective: Objective, data: FitData, y0: dict, tol, max_steps)
     best = jnp.argmin(fits["loss"])
     joint_start = {"control": fits["control"][best],
                    "params": {k: jax.lax.stop_gradient(v[best]) for k, v in raws.items()}}
-    at_start = {k: v[0] for k, v in fits.items() if k != "loss"}
+    at_start = {k: v[0] for k, v in fits.items()}
     start_params = {k: v[0] for k, v in raws.items()}
     # The start's fit may be the result (`prefer_start`): its control points get the
     # implicit derivatives its own solve would have given (`held_implicit`).

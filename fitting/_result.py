@@ -18,8 +18,8 @@ with warnings.catch_warnings():
     class FitStatus(optx.RESULTS):
         """Why a fit stopped: optimistix's results (`optimistix.RESULTS`, whose entries
         and numbers it keeps: `FitStatus.promote(solution.result)`), with our messages
-        for `nonlinear_divergence` and `nonfinite_input`, and `invalid_input` and
-        `tolerance_not_reached` (after optimistix's entries).
+        for `nonlinear_divergence` and `nonfinite_input`, and `invalid_input`,
+        `tolerance_not_reached` and `poor_local_minimum` (after optimistix's entries).
 
         `FitResult.status` holds an entry's number, the index of its name in
         [`fitting.STATUSES`][]: 0 (`successful`) when the solver met its tolerance.
@@ -51,6 +51,14 @@ with warnings.catch_warnings():
             "no control-point count tried fitted within the tolerance. The fit of "
             "smallest error is returned; with on_failure='warn' a warning lists the counts "
             "tried and why the search stopped."
+        )
+        # Set by `fit` when the fit from a given `init` ends worse than the default
+        # start before any step (`_core.poor_start`).
+        poor_local_minimum = (
+            "the fit from the given `init` stopped at a local minimum whose loss is above "
+            "that of the default start before any step (the linear fit at the samples' "
+            "chord-length positions): a poor start. The last iterate is returned; fit "
+            "without `init`, or from a better one."
         )
 
 

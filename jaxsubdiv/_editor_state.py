@@ -695,6 +695,10 @@ def _run_fit(target, scheme, n_control, boundary, init, options):
 def _fit_status(result) -> str:
     size = float(np.linalg.norm(np.ptp(np.asarray(result.curve), axis=0))) or 1.0
     rms = float(result.rms)
-    state = "converged" if bool(result.converged) else "NOT converged"
+    import fitting
+
+    # (The status's name: a refit from dragged points can end in a poor local minimum.)
+    state = ("converged" if bool(result.converged)
+             else f"NOT converged ({fitting.STATUSES[int(result.status)]})")
     text = f"fit {state}: rms {rms:.3g} ({rms / size:.1e} of size), {int(result.num_steps)} steps"
     return text if math.isfinite(rms) else f"fit failed: {result.message}"

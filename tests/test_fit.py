@@ -1567,6 +1567,51 @@ def test_a_hopeless_start_is_not_reported_as_converged():
     assert (not bool(result.converged)) or float(result.rms) < 0.1 * size
 
 
+def _poor_starts(samples):
+    """Starts for a 16-point fit from every 18th of 300 samples: scaled 10x about their
+    centre, and moved 10 sizes diagonally (`benchmarks/bench_bad_starts.py`)."""
+    corners = samples[::18][:16]
+    centre, size = corners.mean(0), np.linalg.norm(np.ptp(samples, axis=0))
+    return [centre + 10 * (corners - centre), corners + 10 * size]
+
+
+@pytest.mark.parametrize("which", [0, 1], ids=["scaled_10x", "moved_10_sizes"])
+def test_a_start_that_ends_worse_than_the_default_start_says_so(which):
+    """DejaVu Sans 'S' (300 samples), 16 control points: from these starts the fit
+    ends in a local minimum with the two-sided RMS 18x that of the fit without `init`
+    (bad_starts.md), and reported `successful` (issue #14). Its loss is then above
+    that of the default start before any step, which the default fit only lowers:
+    `poor_local_minimum`, a failure, and the last iterate is returned."""
+    samples = glyph_outline("S", 300)
+    default = fitting.fit(samples, js.CubicBSpline(), 16)
+    init = _poor_starts(samples)[which]
+    with pytest.warns(RuntimeWarning, match="poor_local_minimum"):
+        result = fitting.fit(samples, js.CubicBSpline(), 16, init=init)
+    assert fitting.STATUSES[int(result.status)] == "poor_local_minimum"
+    assert not bool(result.converged)
+    assert float(result.rms) > 5 * float(default.rms)
+    assert np.all(np.isfinite(np.asarray(result.control_points)))
+    # The editor refits from the points a user dragged, and says why a fit failed.
+    from jaxsubdiv._editor_state import _fit_status
+
+    assert _fit_status(result).startswith("fit NOT converged (poor_local_minimum): rms")
+
+
+def test_a_warm_start_is_not_a_poor_local_minimum():
+    """Starts near the optimum (the fit without `init`, moved by noise of 1% of the
+    size; that fit of the samples' other half) converge as before, to the default
+    fit's RMS: the check does not flag good starts."""
+    samples = glyph_outline("S", 300)
+    default = fitting.fit(samples, js.CubicBSpline(), 16)
+    size = np.linalg.norm(np.ptp(samples, axis=0))
+    noise = 0.01 * size * np.random.default_rng(3).standard_normal((16, 2))
+    other_half = fitting.fit(samples[1::2], js.CubicBSpline(), 16).control_points
+    for init in (np.asarray(default.control_points) + noise, other_half):
+        result = fitting.fit(samples, js.CubicBSpline(), 16, init=init, on_failure="raise")
+        assert fitting.STATUSES[int(result.status)] == "successful"
+        np.testing.assert_allclose(float(result.rms), float(default.rms), rtol=0.02)
+
+
 def test_fit_under_filter_jit():
     samples, _ = _small_problem()
     jitted = eqx.filter_jit(lambda t: fitting.fit(t, js.CubicBSpline(), 8, levels=6))
