@@ -121,6 +121,9 @@ class Solved(eqx.Module):
     # With a profile (`profile_start`): the fit with the parameters held at their start,
     # which the result falls back to when its two-sided RMS is lower (`prefer_start`).
     at_start: "Solved | None" = None
+    # With a given `init`: the start taken without it (the linear fit, no steps), whose
+    # errors `flag_poor_start` compares.
+    linear_start: "Solved | None" = None
 
 
 def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
@@ -158,17 +161,25 @@ def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solv
     result = (settled(sol.result, sol.stats["model"], solver.rtol, solver.atol)
               if own_solver else sol.result)
     status = status_code(result)
+    linear = None
     if problem.default_start is not None:
+        # The start taken without `init`, measured too (`flag_poor_start`).
+        linear_y = jax.lax.stop_gradient(problem.default_start)
+        data = jax.lax.stop_gradient(problem.data)
+        hint = objective.feet(linear_y, data)
+        linear_loss = loss_at(objective, linear_y, data, hint)
         loss = (sol.stats["model"][0] if own_solver
                 else loss_at(objective, sol.value, problem.data))
-        status = poor_start(objective, problem, loss, status)
-        if at_start is not None:
-            at_start = eqx.tree_at(lambda s: s.status, at_start,
-                                   poor_start(objective, problem, held["loss"],
-                                              at_start.status))
+        # (Not the fit at the start's loss: for some schemes the profile's fixed model is
+        # not the joint one, `profile_start`; the RMS check covers whichever is chosen.)
+        status = poor_start(loss, linear_loss, status, tol, problem.valid_count)
+        linear = solved_from(objective, problem, linear_y, hint=hint,
+                             num_steps=jnp.zeros_like(sol.stats["num_steps"]),
+                             status=jnp.zeros_like(status), newton=jnp.zeros_like(newton))
     solved = solved_from(objective, problem, sol.value, hint=sol.stats.get("hint"),
                          num_steps=sol.stats["num_steps"], status=status, newton=newton)
-    return eqx.tree_at(lambda s: s.at_start, solved, at_start, is_leaf=lambda x: x is None)
+    return eqx.tree_at(lambda s: (s.at_start, s.linear_start), solved, (at_start, linear),
+                       is_leaf=lambda x: x is None)
 
 
 class Problem(eqx.Module):
@@ -251,20 +262,31 @@ def set_up(data: FitData, init, objective: Objective) -> Problem:
                    scale=scale, valid_count=valid_count, default_start=start(linear))
 
 
-def loss_at(objective: Objective, y, data: FitData) -> Float[Array, ""]:
-    """The fit's loss (the sum of squared residuals, feet found afresh) at `y`."""
-    return sum(jnp.sum(r**2) for r in jax.tree.leaves(objective.residuals(y, data)))
+def loss_at(objective: Objective, y, data: FitData, hint=None) -> Float[Array, ""]:
+    """The fit's loss (the sum of squared residuals) at `y`, with the feet `hint`
+    (`Objective.feet`; found afresh when None)."""
+    hint = objective.feet(y, data) if hint is None else hint
+    return sum(jnp.sum(r**2) for r in jax.tree.leaves(objective.residuals_at(y, data, hint)))
 
 
-def poor_start(objective: Objective, problem: Problem, loss, status) -> Int[Array, ""]:
+#: A fit from `init` whose two-sided RMS exceeds this multiple of the linear start's is
+#: a poor local minimum (`flag_poor_start`): a fit of lower loss can have a higher RMS
+#: (the halves' weights differ), by up to 7.7% measured (`prefer_start`).
+RMS_MARGIN = 1.1
+
+
+def poor_start(loss, linear_loss, status, tol, valid_count) -> Int[Array, ""]:
     """`status`, made `poor_local_minimum` where it is success but the fit from the given
-    `init` ended at a higher `loss` than the default start has before any step (the
-    linear fit at the samples' chord-length positions, `problem.default_start`): a
-    local minimum that the solver cannot leave, worse than a start it could have taken
-    (`benchmarks/results/bad_starts.md`). Not differentiated: a diagnostic."""
-    default = loss_at(objective, jax.lax.stop_gradient(problem.default_start),
-                      jax.lax.stop_gradient(problem.data))
-    poor = (status == 0) & (jax.lax.stop_gradient(loss) > default)
+    `init` ended at a higher `loss` than the start taken without `init` has before any
+    step (`linear_loss`: the linear fit at the samples' chord-length positions,
+    `Problem.default_start`), by more than the solver's tolerances (`tol` of it plus
+    `valid_count` tol^2: where the linear start is already the optimum, on data the
+    scheme represents exactly, a warm start ends level with it up to rounding). The
+    default solver never accepts a step that raises the loss, so the fit without
+    `init` ends at or below it: this fit is worse. Not differentiated: a diagnostic
+    (`benchmarks/results/bad_starts.md`)."""
+    margin = linear_loss * (1 + tol) + valid_count * tol**2
+    poor = (status == 0) & (jax.lax.stop_gradient(loss) > margin)
     return jnp.where(poor, status_code(FitStatus.poor_local_minimum), status)
 
 
@@ -375,25 +397,54 @@ def prefer_start(solved: Solved, measured: dict, start_measured: dict) -> tuple[
     return jax.tree.map(pick, start, joint), chosen | {"params_held": better}
 
 
-def measure_solved(solved: Solved, objective: Objective, measure=None) -> tuple[Solved, dict]:
-    """`measure_one` of `solved` (and of its fit at the start, if any), and the result
-    `prefer_start` chooses. `measure`: how to run `measure_one` on `measure_arguments`
-    (a compiled program, called once per fit); default: traced in place, the two fits
-    measured by one `vmap` of it (one copy of the measurement in the program, whose
-    compile time is about 40% of a fit's: `measure_one`)."""
+def measure_solved(solved: Solved, objective: Objective, tol, measure=None
+                   ) -> tuple[Solved, dict]:
+    """`measure_one` of `solved` (and of its fit at the start and its linear start, if
+    any), and the result `prefer_start` chooses, flagged by `flag_poor_start` (`tol`:
+    the fit's). `measure`:
+    how to run `measure_one` on `measure_arguments` (a compiled program, called once per
+    fit); default: traced in place, the fits measured by one `vmap` of it (one copy of
+    the measurement in the program, whose compile time is about 40% of a fit's:
+    `measure_one`)."""
+    linear = solved.linear_start
+    solved = eqx.tree_at(lambda s: s.linear_start, solved, None, is_leaf=lambda x: x is None)
+    parts = [x for x in (solved, solved.at_start, linear) if x is not None]
     if measure is not None:
-        measured = measure(*measure_arguments(solved))
-        if solved.at_start is None:
+        results = [measure(*measure_arguments(x)) for x in parts]
+    elif len(parts) == 1:
+        results = [measure_one(*measure_arguments(solved), closed=objective.closed)]
+    else:
+        stacked = jax.tree.map(lambda *xs: jnp.stack(xs),
+                               *(measure_arguments(x) for x in parts))
+        all_ = jax.vmap(lambda *args: measure_one(*args, closed=objective.closed))(*stacked)
+        results = [jax.tree.map(lambda x, i=i: x[i], all_) for i in range(len(parts))]
+    chosen = (solved, results[0]) if solved.at_start is None else prefer_start(
+        solved, results[0], results[1])
+    return chosen if linear is None else flag_poor_start(*chosen, results[-1], tol)
+
+
+def flag_poor_start(solved: Solved, measured: dict, linear_measured: dict, tol
+                    ) -> tuple[Solved, dict]:
+    """`solved` (a fit from a given `init`, its errors `measured`), its status made
+    `poor_local_minimum` where it is success but its two-sided RMS is above `RMS_MARGIN`
+    times that of the start taken without `init` (`linear_measured`: the linear fit at
+    the samples' chord-length positions, before any step) plus `tol` of the outline's
+    size (the RMS the solver calls converged; on exact data both are near zero). The loss weighs the
+    curve-to-samples half less beyond a chord band, so a fit from a bad start can end
+    below the linear start's loss (`poor_start`) with loops that leave the samples: on
+    glyphs at 1.7-2.9x its RMS (`benchmarks/results/bad_starts.md`). Concrete values
+    decide on the host (no program compiled), traced ones with `jnp.where`."""
+    rms, linear_rms, status = measured["rms"], linear_measured["rms"], solved.status
+    slack = tol * solved.scale
+    poor_code = status_code(FitStatus.poor_local_minimum)
+    if not any(is_traced(x) for x in (rms, linear_rms, status, slack)):
+        poor = int(status) == 0 and float(rms) > RMS_MARGIN * float(linear_rms) + float(slack)
+        if not poor:
             return solved, measured
-        return prefer_start(solved, measured, measure(*measure_arguments(solved.at_start)))
-    measure = lambda *args: measure_one(*args, closed=objective.closed)
-    if solved.at_start is None:
-        return solved, measure(*measure_arguments(solved))
-    pair = jax.tree.map(lambda a, b: jnp.stack([a, b]), measure_arguments(solved),
-                        measure_arguments(solved.at_start))
-    both = jax.vmap(measure)(*pair)
-    return prefer_start(solved, jax.tree.map(lambda x: x[0], both),
-                        jax.tree.map(lambda x: x[1], both))
+        return eqx.tree_at(lambda s: s.status, solved,
+                           jax.device_put(np.asarray(poor_code, np.asarray(status).dtype))), measured
+    poor = (status == 0) & (rms > RMS_MARGIN * linear_rms + slack)
+    return eqx.tree_at(lambda s: s.status, solved, jnp.where(poor, poor_code, status)), measured
 
 
 def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
@@ -402,7 +453,7 @@ def fit_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver
     `solve_one` and `measure_one`, as two compiled programs)."""
     solved = solve_one(data, init, tol, max_steps, objective=objective, solver=solver,
                        progress=progress)
-    return assemble(*measure_solved(solved, objective), objective)
+    return assemble(*measure_solved(solved, objective, tol), objective)
 
 
 # Module level, so that repeated calls with the same shapes and settings reuse them.
@@ -516,7 +567,7 @@ def profile_start(objective: Objective, data: FitData, y0: dict, tol, max_steps)
     best = jnp.argmin(fits["loss"])
     joint_start = {"control": fits["control"][best],
                    "params": {k: jax.lax.stop_gradient(v[best]) for k, v in raws.items()}}
-    at_start = {k: v[0] for k, v in fits.items()}
+    at_start = {k: v[0] for k, v in fits.items() if k != "loss"}
     start_params = {k: v[0] for k, v in raws.items()}
     # The start's fit may be the result (`prefer_start`): its control points get the
     # implicit derivatives its own solve would have given (`held_implicit`).
@@ -568,9 +619,10 @@ def newton_step(objective: Objective, y, data: FitData, model=None) -> Float[Arr
     return jnp.where(definite, largest, jnp.inf)
 
 
-def solved_structure(scheme, objective: Objective, counted: bool):
+def solved_structure(scheme, objective: Objective, counted: bool, init_given: bool):
     """The pytree structure of `solve_one`'s `Solved` with the default solver (the fitted
-    scheme has the structure of the given one; `counted`: the data have a `count`)."""
+    scheme has the structure of the given one; `counted`: the data have a `count`;
+    `init_given`: with the linear start, `Solved.linear_start`)."""
     tangents = (0.0, 0.0) if objective.corners else 0.0  # a creased curve's: a pair
     varying = dict(scheme=scheme, tangents=tangents if objective.hermite else None,
                    creases=0.0 if objective.corners else None,
@@ -578,11 +630,12 @@ def solved_structure(scheme, objective: Objective, counted: bool):
                    feet=0.0 if objective.closed and objective.hermite else None)
     # Every other field is one array.
     arrays = {f.name: 0.0 for f in dataclasses.fields(Solved)
-              if f.name not in varying and f.name != "at_start"}
-    solved = Solved(**varying, **arrays)
-    if objective.names and objective.profile:  # the fit at the start, in the same form
-        solved = Solved(**varying, **arrays, at_start=solved)
-    return jax.tree.structure(solved)
+              if f.name not in varying and f.name not in ("at_start", "linear_start")}
+    plain = Solved(**varying, **arrays)
+    at_start = plain if objective.names and objective.profile else None
+    linear = plain if init_given else None  # both in the same form
+    return jax.tree.structure(Solved(**varying, **arrays, at_start=at_start,
+                                     linear_start=linear))
 
 
 MEASURED = jax.tree.structure(dict.fromkeys(
@@ -620,14 +673,15 @@ def run(data: FitData, init, tol, max_steps, *, objective: Objective, solver=Non
     # next anyway).
     with clock, one_blas_thread():
         if exported:
-            structure = solved_structure(data.scheme, objective, data.count is not None)
+            structure = solved_structure(data.scheme, objective, data.count is not None,
+                                         init is not None)
             solved = _exported.call(solve_one, args, static, structure)
             measure = lambda *a: _exported.call(measure_one, a, {"closed": objective.closed},
                                                 MEASURED)
         else:
             solved = solve_jit(*args, **static)
             measure = lambda *a: measure_jit(*a, closed=objective.closed)
-        result = assemble(*measure_solved(solved, objective, measure), objective)
+        result = assemble(*measure_solved(solved, objective, tol, measure), objective)
         if progress or concrete:
             jax.block_until_ready(result)
     if steps:

@@ -164,8 +164,8 @@ def fit(
       `num_steps` counts the returned fit's steps only (the joint fit's, or the
       start's).
     - `init`: starting control points `(n, d)` instead of the linear fit. A fit from
-      `init` that ends with a higher loss than the linear fit has before any step
-      (evaluated once after the solve) reports `poor_local_minimum`: a local minimum
+      `init` that ends worse than the linear fit before any step (a higher loss, or a
+      two-sided RMS above 1.1 times its) reports `poor_local_minimum`: a local minimum
       worse than the fit without `init` (a one-sided test: `docs/fitting.md`).
     - `solver`: `"levenberg-marquardt"` (default: the structured solver above),
       `"optimistix-levenberg-marquardt"`, `"gauss-newton"`, `"dogleg"`, `"bfgs"`

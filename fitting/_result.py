@@ -53,12 +53,13 @@ with warnings.catch_warnings():
             "tried and why the search stopped."
         )
         # Set by `fit` when the fit from a given `init` ends worse than the default
-        # start before any step (`_core.poor_start`).
+        # start before any step (`_core.poor_start`, `_core.flag_poor_start`).
         poor_local_minimum = (
-            "the fit from the given `init` stopped at a local minimum whose loss is above "
-            "that of the default start before any step (the linear fit at the samples' "
-            "chord-length positions): a poor start. The last iterate is returned; fit "
-            "without `init`, or from a better one."
+            "the fit from the given `init` stopped at a local minimum worse than the start "
+            "taken without `init` before any step (the linear fit at the samples' "
+            "chord-length positions): a higher loss, or a two-sided RMS above 1.1 times "
+            "its. A poor start; the last iterate is returned. Fit without `init`, or from "
+            "a better one."
         )
 
 
