@@ -28,7 +28,7 @@ from jaxsubdiv.validation import is_traced
 from . import _exported, _progress
 from ._curve import curve_samples
 from ._init import canonical_order, corner_creases, initial_control
-from ._objective import FitData, Objective, curve_errors
+from ._objective import FitData, Objective, curve_errors, target_distances
 from ._params import from_unconstrained, to_unconstrained
 from ._result import FitResult, FitStatus, status_code
 from ._solver import FootPointLevenbergMarquardt, newton_solve, settled
@@ -122,8 +122,11 @@ class Solved(eqx.Module):
     # which the result falls back to when its two-sided RMS is lower (`prefer_start`).
     at_start: "Solved | None" = None
     # With a given `init`: the start taken without it (the linear fit, no steps), whose
-    # errors `flag_poor_start` compares.
+    # errors `flag_poor_start` compares, and (on that start only) its samples-to-curve
+    # RMS in units of the size, as `measure_one` finds it: a lower bound of its
+    # two-sided RMS, which spares measuring it where the fit is clearly better.
     linear_start: "Solved | None" = None
+    target_to_curve: Array | None = None
 
 
 def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
@@ -176,6 +179,11 @@ def solve_one(data: FitData, init, tol, max_steps, *, objective: Objective, solv
         linear = solved_from(objective, problem, linear_y, hint=hint,
                              num_steps=jnp.zeros_like(sol.stats["num_steps"]),
                              status=jnp.zeros_like(status), newton=jnp.zeros_like(newton))
+        near = target_distances(linear.curve, linear.tangents, linear.target, linear.weights,
+                                linear.feet, closed=objective.closed)
+        share = (linear.weights > 0) / jnp.sum(linear.weights > 0)
+        linear = eqx.tree_at(lambda s: s.target_to_curve, linear,
+                             jnp.sqrt(share @ near**2), is_leaf=lambda x: x is None)
     solved = solved_from(objective, problem, sol.value, hint=sol.stats.get("hint"),
                          num_steps=sol.stats["num_steps"], status=status, newton=newton)
     return eqx.tree_at(lambda s: (s.at_start, s.linear_start), solved, (at_start, linear),
@@ -399,28 +407,41 @@ def prefer_start(solved: Solved, measured: dict, start_measured: dict) -> tuple[
 
 def measure_solved(solved: Solved, objective: Objective, tol, measure=None
                    ) -> tuple[Solved, dict]:
-    """`measure_one` of `solved` (and of its fit at the start and its linear start, if
-    any), and the result `prefer_start` chooses, flagged by `flag_poor_start` (`tol`:
-    the fit's). `measure`:
-    how to run `measure_one` on `measure_arguments` (a compiled program, called once per
-    fit); default: traced in place, the fits measured by one `vmap` of it (one copy of
-    the measurement in the program, whose compile time is about 40% of a fit's:
-    `measure_one`)."""
+    """`measure_one` of `solved` (and of its fit at the start, if any), the result
+    `prefer_start` chooses, and that flagged by `flag_poor_start` against its linear
+    start, if any (`tol`: the fit's). `measure`: how to run `measure_one` on
+    `measure_arguments` (a compiled program, called once per fit); default: traced in
+    place, the fits measured by one `vmap` of it (one copy of the measurement in the
+    program, whose compile time is about 40% of a fit's: `measure_one`)."""
     linear = solved.linear_start
     solved = eqx.tree_at(lambda s: s.linear_start, solved, None, is_leaf=lambda x: x is None)
-    parts = [x for x in (solved, solved.at_start, linear) if x is not None]
+    fits = [x for x in (solved, solved.at_start) if x is not None]
     if measure is not None:
-        results = [measure(*measure_arguments(x)) for x in parts]
-    elif len(parts) == 1:
-        results = [measure_one(*measure_arguments(solved), closed=objective.closed)]
+        results = [measure(*measure_arguments(x)) for x in fits]
     else:
-        stacked = jax.tree.map(lambda *xs: jnp.stack(xs),
-                               *(measure_arguments(x) for x in parts))
-        all_ = jax.vmap(lambda *args: measure_one(*args, closed=objective.closed))(*stacked)
-        results = [jax.tree.map(lambda x, i=i: x[i], all_) for i in range(len(parts))]
+        parts = fits + ([] if linear is None else [linear])
+        if len(parts) == 1:
+            results = [measure_one(*measure_arguments(solved), closed=objective.closed)]
+        else:
+            stacked = jax.tree.map(lambda *xs: jnp.stack(xs),
+                                   *(measure_arguments(x) for x in parts))
+            every = jax.vmap(lambda *args: measure_one(*args, closed=objective.closed))(*stacked)
+            results = [jax.tree.map(lambda x, i=i: x[i], every) for i in range(len(parts))]
     chosen = (solved, results[0]) if solved.at_start is None else prefer_start(
         solved, results[0], results[1])
-    return chosen if linear is None else flag_poor_start(*chosen, results[-1], tol)
+    if linear is None:
+        return chosen
+    if measure is None:
+        return flag_poor_start(*chosen, results[-1], tol)
+    # The linear start's samples-to-curve half bounds its two-sided RMS from below:
+    # where the fit is within the margin of that bound, it is within the margin of the
+    # RMS, and measuring the start (most of the check's cost: `bench_init_check.py`)
+    # is skipped. Concrete values only; traced ones are measured.
+    bound = {"rms": linear.scale * linear.target_to_curve}
+    if not any(is_traced(x) for x in (bound["rms"], chosen[1]["rms"], chosen[0].status)):
+        if int(flag_poor_start(*chosen, bound, tol)[0].status) == int(chosen[0].status):
+            return chosen
+    return flag_poor_start(*chosen, measure(*measure_arguments(linear)), tol)
 
 
 def flag_poor_start(solved: Solved, measured: dict, linear_measured: dict, tol
@@ -629,11 +650,11 @@ def solved_structure(scheme, objective: Objective, counted: bool, init_given: bo
                    count=0.0 if counted else None,
                    feet=0.0 if objective.closed and objective.hermite else None)
     # Every other field is one array.
-    arrays = {f.name: 0.0 for f in dataclasses.fields(Solved)
-              if f.name not in varying and f.name not in ("at_start", "linear_start")}
+    arrays = {f.name: 0.0 for f in dataclasses.fields(Solved) if f.name not in varying
+              and f.name not in ("at_start", "linear_start", "target_to_curve")}
     plain = Solved(**varying, **arrays)
     at_start = plain if objective.names and objective.profile else None
-    linear = plain if init_given else None  # both in the same form
+    linear = Solved(**varying, **arrays, target_to_curve=0.0) if init_given else None
     return jax.tree.structure(Solved(**varying, **arrays, at_start=at_start,
                                      linear_start=linear))
 

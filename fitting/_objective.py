@@ -117,6 +117,19 @@ class TwoSidedErrors(eqx.Module):
     max_curve_to_target: Float[Array, ""]
 
 
+def target_distances(X, VX, target, weights, previous=None, *, closed: bool
+                     ) -> Float[Array, " m"]:
+    """Each sample's distance to the curve at its global nearest point, 0 for samples
+    of weight zero: the target-to-curve half of `curve_errors` (see there)."""
+    if VX is not None:
+        tau = nearest_on_curve(target, X, VX, closed, previous=previous)
+        point, _ = evaluate(X, VX, tau, closed)
+        to_curve = safe_norm(point - target)
+    else:
+        to_curve = distances(target, X, closed)
+    return jnp.where(weights > 0, to_curve, 0.0)
+
+
 def curve_errors(
     X: Float[Array, "N d"],
     VX: Float[Array, "N d"] | None,
@@ -161,13 +174,7 @@ def curve_errors(
     """
     valid = weights > 0
     num_curve = X.shape[0]
-    if VX is not None:
-        tau = nearest_on_curve(target, X, VX, closed, previous=previous)
-        point, _ = evaluate(X, VX, tau, closed)
-        to_curve = safe_norm(point - target)
-    else:
-        to_curve = distances(target, X, closed)
-    to_curve = jnp.where(valid, to_curve, 0.0)
+    to_curve = target_distances(X, VX, target, weights, previous, closed=closed)
     # The curve's segments: ends, midpoints (on the Hermite curve or the chord) and
     # chord lengths, for Simpson's rule in arc length.
     segments = num_curve if closed else num_curve - 1

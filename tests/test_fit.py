@@ -1520,7 +1520,8 @@ def test_the_choice_of_the_start_on_the_host_and_traced(joint_rms, start_rms, st
 
     def solved(tag, status):
         arrays = {f.name: jnp.asarray(tag) for f in dataclasses.fields(_core.Solved)
-                  if f.name not in ("at_start", "tangents", "creases", "count", "feet")}
+                  if f.name not in ("at_start", "linear_start", "target_to_curve", "tangents",
+                                    "creases", "count", "feet")}
         arrays["status"] = jnp.asarray(status)
         return _core.Solved(tangents=None, creases=None, count=None, feet=None, **arrays)
 
@@ -1614,8 +1615,8 @@ def test_the_rms_check_of_a_given_start_on_the_host_and_traced(rms, linear_rms, 
     from fitting import _core
 
     arrays = {f.name: jnp.asarray(1.0) for f in dataclasses.fields(_core.Solved)
-              if f.name not in ("at_start", "linear_start", "tangents", "creases", "count",
-                                "feet")}
+              if f.name not in ("at_start", "linear_start", "target_to_curve", "tangents",
+                                "creases", "count", "feet")}
 
     def flag(rms, linear_rms, status, tol):
         solved = _core.Solved(tangents=None, creases=None, count=None, feet=None,
