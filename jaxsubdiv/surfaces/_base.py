@@ -199,6 +199,7 @@ def vertex_rule(
     smooth_center: np.ndarray,
     smooth_neighbor: np.ndarray,
     crease_weights: tuple[float, float],
+    smooth: bool = True,
 ) -> tuple[list, list, list]:
     """Coordinate lists for vertex rows that use only the vertex and its edge neighbors.
 
@@ -206,19 +207,27 @@ def vertex_rule(
     Crease vertices (two sharp edges): `c * v + s * (a + b)` over the two sharp
     neighbors, `(c, s) = crease_weights` (the cubic B-spline curve rule or its limit).
     Corners are kept. Face-point terms, if any, are added by the caller.
+    `smooth=False` leaves the smooth vertices' rows out (the caller builds them; the
+    other entries are the same, in the same order); `smooth_center` and
+    `smooth_neighbor` are then unused.
     """
     V = topo.num_vertices
     vt = topo.vertex_type
     center, side = crease_weights
-    diag = np.where(vt == SMOOTH, smooth_center, np.where(vt == CREASE, center, 1.0))
-    rows, cols, weights = [np.arange(V)], [np.arange(V)], [diag]
+    if smooth:
+        diag = np.where(vt == SMOOTH, smooth_center, np.where(vt == CREASE, center, 1.0))
+        rows, cols, weights = [np.arange(V)], [np.arange(V)], [diag]
+    else:
+        keep = np.flatnonzero(vt != SMOOTH)
+        rows, cols, weights = [keep], [keep], [np.where(vt[keep] == CREASE, center, 1.0)]
     a, b = topo.edges[:, 0], topo.edges[:, 1]
     sharp_at = (topo.sharp_edge, topo.sharp_edge) if topo.crease_end is None else topo.crease_end.T
     for p, q, sharp in ((a, b, sharp_at[0]), (b, a, sharp_at[1])):
-        m = vt[p] == SMOOTH
-        rows += [p[m]]
-        cols += [q[m]]
-        weights += [smooth_neighbor[p[m]]]
+        if smooth:
+            m = vt[p] == SMOOTH
+            rows += [p[m]]
+            cols += [q[m]]
+            weights += [smooth_neighbor[p[m]]]
         m = (vt[p] == CREASE) & sharp
         rows += [p[m]]
         cols += [q[m]]

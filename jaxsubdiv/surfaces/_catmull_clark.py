@@ -78,13 +78,16 @@ def _face_rest(topo: Topology, half: np.ndarray, row: np.ndarray, weight: np.nda
     """Append, for each half-edge `half[i]`, entries `(row[i], vertex, weight[i])` for
     the vertices `next^k` of its origin in its face, k = 2, ..., size - skip + 1: all
     but the origin and the next vertex (`skip=2`), and the previous one (`skip=3`)."""
-    size = topo.sizes[topo.face[half]]
+    uniform = len(topo.sizes) and topo.sizes[0] == topo.sizes.min() == topo.sizes.max()
+    # Faces of one size (every level after the first): no per-entry sizes to look up.
+    size = topo.sizes[topo.face[half]] if not uniform else None
+    largest = int(topo.sizes[0]) if uniform else int(size.max(initial=0))
     current = topo.next[topo.next[half]]
-    for k in range(2, int(size.max(initial=0)) - skip + 2):
+    for k in range(2, largest - skip + 2):
         # Walking the `next` pointers: one gather per step (all-quad meshes take one
         # or two steps), no per-entry index arithmetic.
-        valid = size - skip + 2 > k
-        if valid.all():
+        valid = slice(None) if uniform else size - skip + 2 > k
+        if not uniform and valid.all():
             valid = slice(None)
         rows.append(row[valid])
         cols.append(topo.origin[current[valid]])
@@ -164,11 +167,8 @@ class CatmullClark(AbstractSurfaceScheme):
         # expanding every face point, and no product with a centroid matrix).
         inv_size = 1 / topo.sizes[topo.face]  # per half-edge: 1 / size of its face
         # Crease and corner vertices: the curve rules (no face points); the smooth rows
-        # that `vertex_rule` makes too are dropped here and built below.
-        zero = np.zeros(V)
-        rows, cols, weights = vertex_rule(topo, zero, zero, (3 / 4, 1 / 8))
-        keep = [topo.vertex_type[r] != SMOOTH for r in rows]
-        rows, cols, weights = ([a[k] for a, k in zip(x, keep)] for x in (rows, cols, weights))
+        # are built below.
+        rows, cols, weights = vertex_rule(topo, None, None, (3 / 4, 1 / 8), smooth=False)
         # Smooth vertices: (n - 2)/n v + 1/n^2 (sum of edge neighbours + face points).
         # Around v, outgoing half-edge h (in face f) leads to the edge neighbour dest(h),
         # which is also in twin(h)'s face; f's other vertices appear once.
@@ -201,10 +201,13 @@ class CatmullClark(AbstractSurfaceScheme):
         cols.append(topo.origin)
         weights.append(inv_size)
         stencil = Sparse.blocks(rows, cols, weights, (V + E + F, V))
-        h = np.arange(topo.num_half_edges)
-        faces = np.stack(
-            [topo.origin, V + topo.edge, V + E + topo.face, V + topo.edge[topo.prev[h]]], 1
-        )
+        # One quad per half-edge h: its origin, its edge point, its face point and the
+        # previous half-edge's edge point (columns written in place: no stacked copies).
+        faces = np.empty((topo.num_half_edges, 4), np.int64)
+        faces[:, 0] = topo.origin
+        np.add(topo.edge, V, out=faces[:, 1])
+        np.add(topo.face, V + E, out=faces[:, 2])
+        faces[:, 3] = faces[topo.prev, 1]
         new_creases, new_corners = refined_tags(topo, corners, V)
         return Level(stencil, faces, new_creases, new_corners)
 

@@ -152,20 +152,14 @@ class Loop(AbstractSurfaceScheme):
         cols.append(topo.origin[topo.prev[h]])  # the vertex opposite the edge
         weights.append(np.full(len(h), 1 / 8))
         stencil = Sparse.blocks(rows, cols, weights, (V + E, V))
-        # Four triangles per triangle, orientation kept.
-        h0 = topo.offsets[:-1]
-        h1, h2 = topo.next[h0], topo.prev[h0]
-        p0, p1, p2 = topo.origin[h0], topo.origin[h1], topo.origin[h2]
-        m0, m1, m2 = V + topo.edge[h0], V + topo.edge[h1], V + topo.edge[h2]
-        faces = np.stack(
-            [
-                np.stack([p0, m0, m2], 1),
-                np.stack([p1, m1, m0], 1),
-                np.stack([p2, m2, m1], 1),
-                np.stack([m0, m1, m2], 1),
-            ],
-            axis=1,
-        ).reshape(-1, 3)
+        # Four triangles per triangle, orientation kept: with the corners p0, p1, p2
+        # (half-edges 3f, 3f + 1, 3f + 2 run p0 -> p1 -> p2) and the edge points m0, m1,
+        # m2 of those half-edges, (p0, m0, m2), (p1, m1, m0), (p2, m2, m1), (m0, m1, m2).
+        # One gather from the six columns, not nested stacks.
+        corners_and_mids = np.empty((topo.num_faces, 6), np.int64)
+        corners_and_mids[:, :3] = topo.origin.reshape(-1, 3)
+        np.add(topo.edge.reshape(-1, 3), V, out=corners_and_mids[:, 3:])
+        faces = corners_and_mids[:, [0, 3, 5, 1, 4, 3, 2, 5, 4, 3, 4, 5]].reshape(-1, 3)
         new_creases, new_corners = refined_tags(topo, corners, V)
         return Level(stencil, faces, new_creases, new_corners)
 
