@@ -146,7 +146,7 @@ class Refiner(eqx.Module):
         count = mesh.num_vertices
         faces, creases, corners = mesh.faces, mesh.creases, mesh.corners
         sharpness = mesh.crease_sharpness, mesh.corner_sharpness
-        tables = []
+        stencils = []
         topo = build_topology(faces, count, creases, corners, scheme.boundary_corners)
         _check_surface_memory(topo, scheme, levels, memory_budget)
         for level in range(levels):
@@ -163,10 +163,12 @@ class Refiner(eqx.Module):
                     "two triangles glued along all three edges: its first level has their "
                     "middle triangle twice. Use a mesh of more faces, or `CatmullClark()`."
                 ) from None
-            tables.append(StencilTable.from_sparse(step.stencil))
+            stencils.append(step.stencil)
             count = step.stencil.shape[0]
             faces, creases, corners = step.faces, step.creases, step.corners
             sharpness = step.crease_sharpness, step.corner_sharpness
+        # Every level's table and the template's (empty) vertices in one transfer.
+        tables, vertices = StencilTable.from_built(stencils, np.zeros((count, 0)))
         self.tables = tuple(tables)
         self.scheme = scheme
         self.levels = levels
@@ -174,7 +176,7 @@ class Refiner(eqx.Module):
         self.memory_budget = memory_budget
         # The refined faces are checked by construction and ours: no check, no copy.
         faces = StaticArray.owned(faces) if levels and faces.size else faces
-        self._template = Mesh(np.zeros((count, 0)), faces, creases=creases, corners=corners,
+        self._template = Mesh(vertices, faces, creases=creases, corners=corners,
                               crease_sharpness=sharpness[0], corner_sharpness=sharpness[1])
 
     def __call__(self, vertices: Float[ArrayLike, "*batch V C"]) -> Float[Array, "*batch N C"]:
