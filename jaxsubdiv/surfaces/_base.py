@@ -225,6 +225,8 @@ def vertex_rule(
     for p, q, sharp in ((a, b, sharp_at[0]), (b, a, sharp_at[1])):
         if smooth:
             m = vt[p] == SMOOTH
+            if m.all():  # no sharp features (every refined level of a closed mesh)
+                m = slice(None)
             rows += [p[m]]
             cols += [q[m]]
             weights += [smooth_neighbor[p[m]]]

@@ -239,8 +239,8 @@ def build_topology(
 
     # One sort of the undirected edge keys gives the edges, their half-edges and counts
     # (`np.unique` would sort again for each of those).
-    lo, hi = np.minimum(origin, dest), np.maximum(origin, dest)
-    keys = lo * V + hi
+    keys = np.minimum(origin, dest) * V
+    keys += np.maximum(origin, dest)  # in place: one temporary fewer
     order = np.argsort(keys, kind="stable")
     sorted_keys = keys[order]
     starts = np.ones(H, bool)
@@ -281,7 +281,6 @@ def build_topology(
             "boundary edges (two fans of faces meet only at this vertex)."
         )
     boundary_vertex = nboundary > 0
-    nfaces = np.bincount(origin, minlength=V)
 
     sharp = boundary_edge.copy()
     tagged_corner = np.zeros(V, bool)
@@ -299,7 +298,9 @@ def build_topology(
     nsharp = np.bincount(edges[sharp].reshape(-1), minlength=V)
     vertex_type = np.full(V, SMOOTH, np.int8)
     vertex_type[nsharp == 2] = CREASE
-    single = boundary_vertex & (nfaces == 1) if boundary_corners else np.zeros(V, bool)
+    single = np.zeros(V, bool)
+    if boundary_corners and boundary_vertex.any():  # a closed mesh needs no face counts
+        single = boundary_vertex & (np.bincount(origin, minlength=V) == 1)
     corner = tagged_corner | (nsharp > 2) | single | (valence == 0)
     vertex_type[corner] = CORNER
     topo = dataclasses.replace(topo, vertex_type=vertex_type)
