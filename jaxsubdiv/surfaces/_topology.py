@@ -193,8 +193,9 @@ def build_topology(
     if F and K >= 3 and faces.min() >= 0:
         # No padding (triangles, quads, every refined Catmull-Clark level): the
         # half-edges are the array's slots, and `next`/`prev` are index arithmetic, not
-        # masks and gathers (a third of this function's time on refined levels).
-        origin = faces.astype(np.int64, copy=False).reshape(-1)
+        # masks and gathers (a third of this function's time on refined levels). A
+        # level's own faces are shared (`validate=False`), a caller's copied.
+        origin = faces.astype(np.int64, copy=validate).reshape(-1)
         if origin.max() >= V:
             raise ValueError(f"`faces` refers to vertex {int(origin.max())}, but there are only {V} vertices.")
         H = F * K
