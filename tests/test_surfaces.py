@@ -1753,3 +1753,75 @@ def test_predicted_counts_bound_the_refined_mesh(scheme, make, exact):
         fields = ("vertices", "edges", "faces", "half_edges", "sharp")
         pairs = [(getattr(predicted, f), getattr(actual, f)) for f in fields]
         assert all(p == a for p, a in pairs) if exact else all(p >= a for p, a in pairs), pairs
+
+
+def plain_half_edges(faces, num_vertices, boundary_corners=True):
+    """The half-edge tables of `build_topology`, by their definitions, one face and one
+    half-edge at a time in plain Python (the reference for its vectorized fast paths)."""
+    faces = [[int(v) for v in f if v >= 0] for f in np.asarray(faces).tolist()]
+    origin, face, nxt, prv, sizes, offsets = [], [], [], [], [], [0]
+    for f, vs in enumerate(faces):
+        k, base = len(vs), offsets[-1]
+        for i, v in enumerate(vs):
+            origin.append(v)
+            face.append(f)
+            nxt.append(base + (i + 1) % k)
+            prv.append(base + (i - 1) % k)
+        sizes.append(k)
+        offsets.append(base + k)
+    directed = {(origin[h], origin[nxt[h]]): h for h in range(len(origin))}
+    twin = [directed.get((origin[nxt[h]], origin[h]), -1) for h in range(len(origin))]
+    edges = sorted({tuple(sorted((origin[h], origin[nxt[h]]))) for h in range(len(origin))})
+    index = {e: i for i, e in enumerate(edges)}
+    edge = [index[tuple(sorted((origin[h], origin[nxt[h]])))] for h in range(len(origin))]
+    edge_half = [min(h for h in range(len(origin)) if edge[h] == e) for e in range(len(edges))]
+    boundary_edge = [edge.count(e) == 1 for e in range(len(edges))]
+    valence = [sum(v in e for e in edges) for v in range(num_vertices)]
+    sharp = [sum(v in e for e, b in zip(edges, boundary_edge) if b) for v in range(num_vertices)]
+    in_faces = [origin.count(v) for v in range(num_vertices)]
+    vertex_type = [
+        2 if s > 2 or valence[v] == 0 or (boundary_corners and s and in_faces[v] == 1)
+        else 1 if s == 2 else 0
+        for v, s in enumerate(sharp)
+    ]  # fmt: skip
+    return dict(origin=origin, face=face, next=nxt, prev=prv, sizes=sizes, offsets=offsets,
+                twin=twin, edges=edges, edge=edge, edge_half=edge_half,
+                boundary_edge=boundary_edge, valence=valence,
+                boundary_vertex=[s > 0 for s in sharp], vertex_type=vertex_type)  # fmt: skip
+
+
+def _shuffled(make, seed=5):
+    """A mesh with its vertices relabeled and its faces reordered at random."""
+    v, f = make()
+    f = np.asarray(f)
+    rng = np.random.default_rng(seed)
+    label = rng.permutation(len(v))
+    return np.where(f >= 0, label[np.maximum(f, 0)], -1)[rng.permutation(len(f))], len(v)
+
+
+TOPOLOGY_CASES = [
+    ("torus_quads", lambda: (torus_quads(3, 5)[1], 15)),  # no padding: the fast path
+    ("torus_triangles", lambda: _shuffled(lambda: torus_triangles(4, 3))),
+    ("grid_triangles", lambda: _shuffled(lambda: grid(3, 2, triangles=True))),  # boundary
+    ("grid_quads", lambda: (grid(2, 3)[1], 12)),
+    ("polygons", lambda: (np.array(polygons()[1]), 9)),  # padded: the general path
+    ("valence_two", lambda: _shuffled(cube_with_valence_two_vertex)),
+    ("fan_isolated", lambda: (hexagon_fan()[1], 8)),  # vertex 7 is in no face
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("name, make", TOPOLOGY_CASES, ids=[c[0] for c in TOPOLOGY_CASES])
+@pytest.mark.parametrize("boundary_corners", [True, False])
+def test_topology_equals_plain_half_edges(name, make, boundary_corners):
+    """`build_topology` (faces of one size take a path without masks or gathers, padded
+    faces the general one) gives the half-edge tables of their definitions, on the
+    faces of a mesh and on its refined levels' (`validate=False`)."""
+    from jaxsubdiv.surfaces._topology import build_topology
+
+    faces, count = make()
+    refiner = jss.Refiner(jss.Mesh(np.zeros((count, 3)), faces), jss.CatmullClark(), 2)
+    for faces, count, validate in ((faces, count, True), (refiner.faces, refiner.num_vertices, False)):
+        topo = build_topology(faces, count, boundary_corners=boundary_corners, validate=validate)
+        for field, want in plain_half_edges(faces, count, boundary_corners).items():
+            got = getattr(topo, field)
+            assert got.tolist() == np.asarray(want).reshape(got.shape).tolist(), field
