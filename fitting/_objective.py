@@ -130,6 +130,15 @@ def target_distances(X, VX, target, weights, previous=None, *, closed: bool
     return jnp.where(weights > 0, to_curve, 0.0)
 
 
+def root_mean_square(distances: Float[Array, " m"], weights: Float[Array, " m"]
+                     ) -> Float[Array, ""]:
+    """The RMS of `distances` over the samples of non-zero weight, each counted once
+    (the reported RMS of `curve_errors`' target-to-curve half)."""
+    valid = weights > 0
+    share = (valid / jnp.sum(valid)).astype(distances.dtype)
+    return safe_sqrt(share @ distances**2)
+
+
 def curve_errors(
     X: Float[Array, "N d"],
     VX: Float[Array, "N d"] | None,
@@ -172,7 +181,6 @@ def curve_errors(
     global nearest point (a tracked foot can sit on a branch of the curve that is no
     longer nearest).
     """
-    valid = weights > 0
     num_curve = X.shape[0]
     to_curve = target_distances(X, VX, target, weights, previous, closed=closed)
     # The curve's segments: ends, midpoints (on the Hermite curve or the chord) and
@@ -208,9 +216,8 @@ def curve_errors(
     segment, fraction = all_distances(*jax.lax.stop_gradient((near_peak, target)),
                                       closed, chunk=REFINE_MAX)
     peak = jnp.max(safe_norm(foot_residual(near_peak, target, segment, fraction, closed)))
-    share = (valid / jnp.sum(valid)).astype(target.dtype)
     return TwoSidedErrors(
-        rms_target_to_curve=safe_sqrt(share @ to_curve**2),
+        rms_target_to_curve=root_mean_square(to_curve, weights),
         max_target_to_curve=jnp.max(to_curve),
         rms_curve_to_target=safe_sqrt(mean_square),
         max_curve_to_target=jnp.maximum(jnp.max(to_target), peak),

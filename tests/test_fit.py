@@ -1648,6 +1648,53 @@ def test_a_warm_start_is_not_a_poor_local_minimum():
         np.testing.assert_allclose(float(result.rms), float(default.rms), rtol=0.02)
 
 
+@pytest.mark.parametrize("char, start, expected, calls_expected", [
+    ("S", "warm", "successful", 1), ("a", "scaled_10x", "poor_local_minimum", 2),
+    ("S", "scaled_10x", "poor_local_minimum", 1)], ids=["warm", "rms-rule", "loss-rule"])
+def test_the_linear_start_is_measured_only_where_it_decides(monkeypatch, char, start,
+                                                            expected, calls_expected):
+    """`measure_solved` measures a fit from `init` and, only where its lower bound (the
+    start's samples-to-curve half, computed in the solve) does not clear the fit, the
+    linear start too: a warm start costs one measurement, a start flagged by its RMS
+    two, one already flagged by its loss one. The status is the one that measuring
+    everything gives (traced, under `jit`), and the bound is the measured half (the
+    skip's premise)."""
+    import fitting._fit as fit_module
+    from fitting import _core
+
+    samples = glyph_outline(char, 300)
+    default = fitting.fit(samples, js.CubicBSpline(), 16)
+    init = (np.asarray(default.control_points) if start == "warm"
+            else _poor_starts(samples)[0])
+    seen = {}
+
+    def capture(data, init, tol, max_steps, *, objective, solver=None, progress=False):
+        seen.update(data=data, init=init, tol=tol, max_steps=max_steps, objective=objective)
+        raise _Stop
+
+    monkeypatch.setattr(fit_module, "run", capture)
+    with pytest.raises(_Stop):
+        fitting.fit(samples, js.CubicBSpline(), 16, init=init)
+    objective, tol = seen["objective"], seen["tol"]
+    solved = _core.solve_jit(seen["data"], seen["init"], tol, seen["max_steps"],
+                             objective=objective)
+    calls = []
+
+    def measure(*args):
+        calls.append(1)
+        return _core.measure_jit(*args, closed=objective.closed)
+
+    skipping, _ = _core.measure_solved(solved, objective, tol, measure)
+    everything, _ = jax.jit(lambda s: _core.measure_solved(s, objective, tol))(solved)
+    assert fitting.STATUSES[int(skipping.status)] == expected
+    assert int(everything.status) == int(skipping.status)
+    assert len(calls) == calls_expected
+    linear = solved.linear_start
+    half = _core.measure_jit(*_core.measure_arguments(linear), closed=objective.closed)
+    np.testing.assert_allclose(float(linear.scale * linear.target_to_curve),
+                               float(half["rms_target_to_curve"]), rtol=1e-12)
+
+
 def _line(m=40):
     return np.stack([np.linspace(0.0, 1.0, m), 0.3 * np.linspace(0.0, 1.0, m)], -1)
 
