@@ -1709,7 +1709,7 @@ def _square(m=30):
 #: Data the scheme represents exactly (the fit without `init` ends at its linear start,
 #: RMS ~1e-10), and warm starts there: (samples, n, settings, noise in units of the size).
 exact_warm_cases = [
-    (_square, 8, dict(corners="auto"), 0.0), (_square, 12, dict(corners="auto"), 1e-3),
+    (_square, 8, dict(corners="auto"), 0.0), (_square, 8, dict(corners="auto"), 1e-3),
     (_line, 6, dict(boundary="clamped", pin_ends=True), 0.0),
     (_line, 6, dict(boundary="clamped", pin_ends=True), 1e-3),
     (_line, 6, dict(boundary="open", pin_ends=True), 1e-6),
