@@ -13,7 +13,8 @@ by Gaussian noise of 1% of the size, and the default fit of every other sample.
 Recorded: the status, steps, two-sided RMS and `newton_step` (the
 control points' distance to the optimum the local model estimates; inf where the
 Hessian is not positive definite), both in units of the outline's size (the diagonal of
-its bounding box), against the default start's RMS.
+its bounding box), against the default start's RMS and against the linear start's (the
+start taken without `init`, before any step: the same fit with max_steps=1).
 
 A second table checks that good starts are not flagged more widely: 48 default fits
 (DejaVu Sans and Serif 'S', 'g', 'a', 'Q', 'R', '8', '&' at n = 16 and 32, closed cubic
@@ -85,11 +86,13 @@ def markdown(run: dict) -> str:
         f"{run['commit']}.", "",
         __doc__.split("\n\n", 2)[2].split("\n\nWrites")[0].replace("\n", " "), "",
         "| glyph | start | status | steps | RMS / size | RMS / default start's "
-        "| Newton step / size |", "| --- | --- | --- | ---: | ---: | ---: | ---: |",
+        "| RMS / linear start's | Newton step / size |",
+        "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: |",
     ]
     for row in run["rows"]:
         lines.append(f"| {row['glyph']} | {row['start']} | {row['status']} | {row['steps']} | "
-                     f"{row['rms']:.3g} | {row['rms_ratio']:.3g} | {row['newton']:.3g} |")
+                     f"{row['rms']:.3g} | {row['rms_ratio']:.3g} | "
+                     f"{row['rms_over_linear']:.3g} | {row['newton']:.3g} |")
     bad = [r for r in run["rows"] if r["start"] not in ("default", *WARM)]
     warm = [r for r in run["rows"] if r["start"] in WARM]
     fooled = [r for r in bad if r["status"] == "successful" and r["rms_ratio"] > 2]
@@ -162,6 +165,9 @@ def main():
         samples = glyph(char)
         size = float(np.linalg.norm(np.ptp(samples, axis=0)))
         default_rms = None
+        # The start taken without `init` (the linear fit, before any step).
+        linear_rms = float(fitting.fit(samples, js.CubicBSpline(), 16, max_steps=1,
+                                       on_failure="ignore").rms) / size
         chosen = starts(samples, size)
         if args.smoke:
             chosen = {k: chosen[k] for k in ("default", "scaled 10x")}
@@ -176,6 +182,7 @@ def main():
             rows.append(dict(glyph=f"DejaVu Sans {char!r}", start=name,
                              status=fitting.STATUSES[int(r.status)], steps=int(r.num_steps),
                              rms=rms, rms_ratio=rms / default_rms,
+                             rms_over_linear=rms / linear_rms,
                              newton=float(r.newton_step) / size))
             print(rows[-1], flush=True)
     run["rows"] = rows

@@ -461,7 +461,7 @@ def flag_poor_start(solved: Solved, measured: dict, linear_measured: dict, tol
     size (the RMS the solver calls converged; on exact data both are near zero). The loss weighs the
     curve-to-samples half less beyond a chord band, so a fit from a bad start can end
     below the linear start's loss (`poor_start`) with loops that leave the samples: on
-    glyphs at 1.7-2.9x its RMS (`benchmarks/results/bad_starts.md`). Concrete values
+    glyphs at 1.6-2.9x its RMS (`benchmarks/results/bad_starts.md`). Concrete values
     decide on the host (no program compiled), traced ones with `jnp.where`."""
     rms, linear_rms, status = measured["rms"], linear_measured["rms"], solved.status
     slack = tol * solved.scale
