@@ -64,6 +64,47 @@ def versions(before: str | None, scratch: pathlib.Path) -> dict:
     return {"before": (_extract(before, scratch), _commit(before)), **after}
 
 
+def run_versions(before: str | None, rounds: int, code: str, spec_of, *,
+                 describe=None, timeout: float = 900) -> tuple[dict, dict]:
+    """Run `code` in fresh interpreters for this tree and, with `before`, that git
+    revision (`versions`), alternating round by round (in turn first): `(commits,
+    measured)`, `measured[name]` the child's JSON of each round. The child gets the
+    version's tree, this folder and `json.dumps(spec_of(name, round))` as its
+    arguments, and must report the folder it imported `fitting` from (`"fitting"`),
+    which is checked; `describe(result)` gives a progress line."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        trees = versions(before, pathlib.Path(tmp))
+        measured = {name: [] for name in trees}
+        for r in range(rounds):
+            for name in list(trees) if r % 2 == 0 else list(reversed(trees)):
+                tree = trees[name][0]
+                result = child_json(code, str(tree), str(pathlib.Path(__file__).parent),
+                                    json.dumps(spec_of(name, r)),
+                                    what=f"{name} (round {r + 1})", timeout=timeout)
+                if pathlib.Path(result["fitting"]).resolve() != (tree / "fitting").resolve():
+                    raise SystemExit(f"{name} imported fitting from {result['fitting']}")
+                measured[name].append(result)
+                if describe is not None:
+                    print(f"round {r + 1}, {name}: {describe(result)}", flush=True)
+    return {name: commit for name, (_, commit) in trees.items()}, measured
+
+
+def median_cases(measured: dict, key: str) -> list[dict]:
+    """One row per case of `run_versions`' results (each child's `"cases"`, in the same
+    order): the first round's entry for each version, with `key` the median over
+    rounds."""
+    rows = []
+    for i, case in enumerate(measured["after"][0]["cases"]):
+        row = {"case": case["case"]}
+        for name, results in measured.items():
+            row[name] = dict(results[0]["cases"][i],
+                             **{key: statistics.median(r["cases"][i][key] for r in results)})
+        rows.append(row)
+    return rows
+
+
 def blob(seed: int, m: int):
     """A smooth random closed outline of `m` samples (numpy, float64): a unit circle's
     radius perturbed by three harmonics (2, 3, 5) of amplitudes in [0.05, 0.25) and

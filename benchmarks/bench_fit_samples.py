@@ -248,31 +248,13 @@ def main() -> None:
     spec = dict(images=SMOKE_IMAGES if args.smoke else IMAGES,
                 smooth=SMOKE_SMOOTH if args.smoke else SMOOTH,
                 glyphs=SMOKE_GLYPHS if args.smoke else GLYPHS, repeats=repeats)
-    with tempfile.TemporaryDirectory() as tmp:
-        versions = _common.versions(args.before, pathlib.Path(tmp))
-        run["versions"] = {name: commit for name, (_, commit) in versions.items()}
-        measured = {name: [] for name in versions}
-        for r in range(rounds):
-            order = list(versions) if r % 2 == 0 else list(reversed(versions))
-            for name in order:
-                tree = versions[name][0]
-                this = dict(spec, searches=name == "after" and r == 0)
-                result = _common.child_json(CHILD, str(tree), str(BENCH), json.dumps(this),
-                                            what=f"{name} (round {r + 1})", timeout=3600)
-                if pathlib.Path(result["fitting"]).resolve() != (tree / "fitting").resolve():
-                    raise SystemExit(f"{name} imported fitting from {result['fitting']}")
-                measured[name].append(result)
-                print(f"round {r + 1}, {name}: "
-                      + ", ".join(f"{c['case']} {c['seconds']:.2f}s" for c in result["cases"]),
-                      flush=True)
-    run["cases"] = []
-    for i, case in enumerate(measured["after"][0]["cases"]):
-        row = {"case": case["case"]}
-        for name, results in measured.items():
-            first = results[0]["cases"][i]
-            row[name] = dict(first, seconds=statistics.median(
-                r["cases"][i]["seconds"] for r in results))
-        run["cases"].append(row)
+    describe = lambda result: ", ".join(f"{c['case']} {c['seconds']:.2f}s"
+                                        for c in result["cases"])
+    run["versions"], measured = _common.run_versions(
+        args.before, rounds, CHILD,
+        lambda name, r: dict(spec, searches=name == "after" and r == 0),
+        describe=describe, timeout=3600)
+    run["cases"] = _common.median_cases(measured, "seconds")
     run["searches"] = measured["after"][0].get("searches")
     run["load_end"] = _common.load()
     _common.write_results(output, run, markdown)

@@ -20,7 +20,6 @@ import json
 import pathlib
 import statistics
 import sys
-import tempfile
 import time
 
 
@@ -92,30 +91,12 @@ def main() -> None:
         __doc__, "init_check", rounds=(1, 3), repeats=(1, 1), smoke_help="one case (CI)")
     run = _common.header(rounds=rounds)
     spec = dict(cases=CASES[:1] if args.smoke else CASES, repeats=15)
-    with tempfile.TemporaryDirectory() as tmp:
-        versions = _common.versions(None if args.smoke else args.before, pathlib.Path(tmp))
-        run["versions"] = {name: commit for name, (_, commit) in versions.items()}
-        measured = {name: [] for name in versions}
-        for r in range(rounds):
-            order = list(versions) if r % 2 == 0 else list(reversed(versions))
-            for name in order:
-                tree = versions[name][0]
-                # The bench's own folder: this tree's scripts, the version's `fitting`.
-                result = _common.child_json(CHILD, str(tree), str(BENCH), json.dumps(spec),
-                                            what=f"{name} (round {r + 1})")
-                if pathlib.Path(result["fitting"]).resolve() != (tree / "fitting").resolve():
-                    raise SystemExit(f"{name} imported fitting from {result['fitting']}")
-                measured[name].append(result)
-                print(f"round {r + 1}, {name}: "
-                      + ", ".join(f"{c['case']} {c['ms']:.1f} ms" for c in result["cases"]),
-                      flush=True)
-    run["cases"] = []
-    for i, case in enumerate(measured["after"][0]["cases"]):
-        row = {"case": case["case"]}
-        for name, results in measured.items():
-            row[name] = dict(results[0]["cases"][i],
-                             ms=statistics.median(r["cases"][i]["ms"] for r in results))
-        run["cases"].append(row)
+    describe = lambda result: ", ".join(f"{c['case']} {c['ms']:.1f} ms"
+                                        for c in result["cases"])
+    run["versions"], measured = _common.run_versions(
+        None if args.smoke else args.before, rounds, CHILD, lambda name, r: spec,
+        describe=describe)
+    run["cases"] = _common.median_cases(measured, "ms")
     run["load_end"] = _common.load()
     _common.write_results(output, run, markdown)
     print(markdown(run))
