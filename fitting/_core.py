@@ -458,11 +458,12 @@ def flag_poor_start(solved: Solved, measured: dict, linear_measured: dict, tol
     `poor_local_minimum` where it is success but its two-sided RMS is above `RMS_MARGIN`
     times that of the start taken without `init` (`linear_measured`: the linear fit at
     the samples' chord-length positions, before any step) plus `tol` of the outline's
-    size (the RMS the solver calls converged; on exact data both are near zero). The loss weighs the
-    curve-to-samples half less beyond a chord band, so a fit from a bad start can end
-    below the linear start's loss (`poor_start`) with loops that leave the samples: on
-    glyphs at 1.6-2.9x its RMS (`benchmarks/results/bad_starts.md`). Concrete values
-    decide on the host (no program compiled), traced ones with `jnp.where`."""
+    size (the RMS the solver calls converged; on exact data both are near zero). The
+    loss weighs the curve-to-samples half less beyond a chord band, so a fit from a bad
+    start can end below the linear start's loss (`poor_start`) with loops that leave
+    the samples: on glyphs at 1.6-2.9x its RMS (`benchmarks/results/bad_starts.md`).
+    Concrete values decide on the host (no program compiled), traced ones with
+    `jnp.where`."""
     rms, linear_rms, status = measured["rms"], linear_measured["rms"], solved.status
     slack = tol * solved.scale
     poor_code = status_code(FitStatus.poor_local_minimum)
@@ -470,8 +471,8 @@ def flag_poor_start(solved: Solved, measured: dict, linear_measured: dict, tol
         poor = int(status) == 0 and float(rms) > RMS_MARGIN * float(linear_rms) + float(slack)
         if not poor:
             return solved, measured
-        return eqx.tree_at(lambda s: s.status, solved,
-                           jax.device_put(np.asarray(poor_code, np.asarray(status).dtype))), measured
+        flagged = jax.device_put(np.asarray(poor_code, np.asarray(status).dtype))
+        return eqx.tree_at(lambda s: s.status, solved, flagged), measured
     poor = (status == 0) & (rms > RMS_MARGIN * linear_rms + slack)
     return eqx.tree_at(lambda s: s.status, solved, jnp.where(poor, poor_code, status)), measured
 
