@@ -614,8 +614,7 @@ def _held_primal(inputs):
 def _held_rewrite(y, _, inputs):
     # optimistix's optimality condition of a least-squares solve: the loss's gradient.
     _, objective, args = inputs
-    loss = lambda z: 0.5 * sum(jnp.sum(r**2) for r in jax.tree.leaves(objective.residuals(z, args)))
-    return jax.grad(loss)(y)
+    return jax.grad(lambda z: 0.5 * loss_at(objective, z, args))(y)
 
 
 def held_implicit(objective: Objective, control, args: FitData):
