@@ -256,9 +256,9 @@ def set_up(data: FitData, init, objective: Objective) -> Problem:
     # The curve's basis at the starting parameters: for the initial linear fit, for the
     # whole solve when no parameter is fitted, and for the final curve then.
     basis = objective.basis_of(scheme, dtype, creases)
-    if basis[0].shape[0] != objective.num_curve:  # static shapes: a defect, never data
+    if len(basis[0]) != objective.num_curve:  # static shapes: a defect, never data
         raise AssertionError(f"the objective expects {objective.num_curve} curve samples, "
-                             f"the basis has {basis[0].shape[0]} rows")
+                             f"the basis has {len(basis[0])} rows")
     # The problem in units of the outline's size.
     scaled = FitData(target=(target - center) / scale, weights=weights, scheme=scheme,
                      root_smoothing=data.root_smoothing,

@@ -892,18 +892,37 @@ def creased_tables(
 
 
 def tangents_of(V, P: Float[Array, "n d"]):
-    """The curve's tangents from the tangent basis `V` (None, an `(N, n)` matrix, or a
-    creased curve's pair from after and from before each sample) and the control
-    points: the same structure, each `(N, d)`."""
-    return None if V is None else jax.tree.map(lambda v: v @ P, V)
+    """The curve's tangents from the tangent tables `V` (None, a table, or a creased
+    curve's pair from after and from before each sample) and the control points: the
+    same structure, each `(N, d)`."""
+    if V is None:
+        return None
+    return tuple(v.apply(P) for v in V) if isinstance(V, tuple) else V.apply(P)
+
+
+def stencil_rows(table: js.CurveStencil, index) -> Float[Array, "k n"]:
+    """Rows `index` `(k,)` (integers, may be traced) of `table` as dense `(k, n)` rows:
+    O(k n), not the O(N n) of the whole dense table."""
+    index = jnp.asarray(index)
+    columns = jnp.asarray(table.columns())[index]  # (k, width)
+    rows = jnp.zeros((index.shape[0], table.n), table.weights.dtype)
+    return rows.at[jnp.arange(index.shape[0])[:, None], columns].add(table.weights[index])
 
 
 def kinks(V) -> Bool[Array, " N"] | None:
     """The curve samples where a creased curve's tangents from after and from before
-    differ (its corners; `V` a pair), else None (a $C^1$ curve, or chords)."""
+    differ (its corners; `V` a pair of tables, or of the tangents `(N, d)` they give),
+    else None (a $C^1$ curve, or chords)."""
     if not isinstance(V, tuple):
         return None
     right, left = V
+    if isinstance(right, js.CurveStencil):
+        # Static: rows on the same windows, no control point twice in one (the dense
+        # rows sum repeated columns).
+        if np.array_equal(right.first, left.first) and right.width <= right.n:
+            right, left = right.weights, left.weights
+        else:
+            right, left = right.dense(), left.dense()
     return jnp.any(right != left, axis=tuple(range(1, right.ndim)))
 
 

@@ -5,6 +5,10 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
+import jaxsubdiv as js
+
+from ._curve import stencil_rows
+
 
 def order_samples(points, *, closed: bool = True) -> np.ndarray:
     """Order unordered samples of an outline along it; returns the index order.
@@ -68,9 +72,10 @@ def chord_fractions(target: Float[Array, "m d"], closed: bool) -> Float[Array, "
     return cumulative / jnp.where(total > 0, total, 1.0)
 
 
-def interpolate_rows(table: Float[Array, "N k"], position: Float[Array, " m"], closed: bool):
-    """Linear interpolation of the rows of `table` at fractional row `position`s."""
-    N = table.shape[0]
+def interpolate_rows(table: js.CurveStencil, position: Float[Array, " m"], closed: bool):
+    """Linear interpolation of the rows of the curve table `table` at fractional row
+    `position`s: dense `(m, n)` rows."""
+    N = len(table)
     base = jnp.floor(position).astype(int)
     if closed:
         i0 = base % N
@@ -79,7 +84,7 @@ def interpolate_rows(table: Float[Array, "N k"], position: Float[Array, " m"], c
         i0 = jnp.clip(base, 0, N - 2)
         i1 = i0 + 1
     frac = jnp.clip(position - i0, 0.0, 1.0)[:, None] if not closed else (position - base)[:, None]
-    return (1 - frac) * table[i0] + frac * table[i1]
+    return (1 - frac) * stencil_rows(table, i0) + frac * stencil_rows(table, i1)
 
 
 def second_differences(n: int, closed: bool, dtype, creases=None) -> Array:
@@ -274,7 +279,7 @@ def canonical_order(target: Float[Array, "m d"], count=None) -> Int[Array, " m"]
 def initial_control(
     target: Float[Array, "m d"],
     weights: Float[Array, " m"],
-    table: Float[Array, "N n"],
+    table: js.CurveStencil,
     boundary: str,
     smoothing,
     position=None,
@@ -283,8 +288,8 @@ def initial_control(
     """Linear least-squares control points for chord-length parameters (from the first
     sample: `fit` has put a closed outline's samples in `canonical_order`).
 
-    `table` is the curve's basis: row `K` maps the control points to the limit curve at
-    its dyadic sample `K` (`_curve.curve_tables`, as a dense matrix).
+    `table` is the curve's table: row `K` maps the control points to the limit curve at
+    its dyadic sample `K` (`_curve.curve_tables`).
 
     Solves $(B^T W B + \\mu D^T D) P = B^T W T$ with a Cholesky factorization, where B maps
     control points to the curve at the samples' chord-length positions and D takes
@@ -297,7 +302,7 @@ def initial_control(
     differences there).
     """
     closed = boundary == "closed"
-    N, n = table.shape
+    N, n = len(table), table.n
     fractions = chord_fractions(target, closed) if position is None else position / n
     W = weights / jnp.sum(weights)
     D = second_differences(n, closed, target.dtype, creases)

@@ -316,7 +316,7 @@ def test_fit_model_equals_dense_assembly(scheme, n, boundary):
     refined = js.refine(jnp.eye(n), scheme, levels, boundary=boundary)
     A = js.limit_points(refined, scheme, boundary=boundary)
     V = js.limit_tangents(refined, scheme, boundary=boundary) if hermite else None
-    np.testing.assert_allclose(args.basis[0], A, atol=1e-13)
+    np.testing.assert_allclose(args.basis[0].dense(), A, atol=1e-13)
     theta = np.linspace(0, 2 * np.pi, n, endpoint=False)
     P = jnp.asarray(np.stack([np.cos(theta), 0.9 * np.sin(theta)], -1))
     # One compiled program for the library's model and one for the dense sums (op by
@@ -566,3 +566,54 @@ def test_creased_table_errors():
         js.limit_curve(P, js.CubicBSpline(), 2, creases=[7])
     with pytest.raises(ValueError, match="traced `creases`"):
         jax.jit(lambda c: js.limit_curve(P, js.CubicBSpline(), 2, creases=c))(jnp.array([1]))
+
+
+_ROW_CASES = [(js.CubicBSpline(), 3, "closed"), (js.CubicBSpline(), 9, "closed"),
+              (js.FourPoint(0.1), 9, "open"), (js.CubicBSpline(), 9, "clamped")]
+
+
+@pytest.mark.parametrize("scheme, n, boundary", _ROW_CASES)
+def test_fit_rows_from_tables_match_the_refined_identity(scheme, n, boundary):
+    """The fit reads rows of its curve table without forming the dense `(N, n)` basis
+    (`_curve.stencil_rows`, and `_init.interpolate_rows` for its linear start): the
+    rows of the basis built independently (the identity refined and pushed to the
+    limit), and their linear interpolation in plain numpy. A closed curve of 3 control
+    points has windows wider than the polygon, whose repeated columns add up."""
+    from fitting._curve import stencil_rows
+    from fitting._init import interpolate_rows
+
+    levels, closed = 3, boundary == "closed"
+    table = js.curve_stencil(scheme, n, levels, boundary=boundary)
+    A = np.asarray(js.limit_points(js.refine(jnp.eye(n), scheme, levels, boundary=boundary),
+                                   scheme, boundary=boundary))
+    N = A.shape[0]
+    index = np.array([0, 1, N // 2, N - 1])
+    np.testing.assert_allclose(stencil_rows(table, jnp.asarray(index)), A[index], atol=1e-13)
+    position = np.array([0.0, 0.25, N / 3 + 0.5, N - 1.0 - 0.125 * (not closed)])
+    if closed:
+        position[-1] = N - 0.5  # between the last sample and the first
+    low = np.floor(position).astype(int)
+    high = (low + 1) % N if closed else np.minimum(low + 1, N - 1)
+    fraction = (position - low)[:, None]
+    expected = (1 - fraction) * A[low % N] + fraction * A[high]
+    got = interpolate_rows(table, jnp.asarray(position), closed)
+    np.testing.assert_allclose(got, expected, atol=1e-13)
+
+
+@pytest.mark.parametrize("n, creases", [(9, (0, 3, 4)), (5, (2,))])
+def test_kinks_of_creased_tables_are_the_creases(n, creases):
+    """`_curve.kinks` on a creased curve's pair of tangent tables (from after and from
+    before each sample, read off the tables' weights) marks exactly the limit points of
+    the creased control points, sample 2^levels c of a primal scheme: the same rows as
+    the tangents those tables give for random control points."""
+    from fitting._curve import creased_tables, kinks
+
+    levels = 3
+    mask = jnp.zeros(n, bool).at[jnp.asarray(creases)].set(True)
+    _, tangents = creased_tables(js.CubicBSpline(), n, levels, mask, jnp.float64, True)
+    got = np.asarray(kinks(tangents))
+    expected = np.zeros(n * 2**levels, bool)
+    expected[np.asarray(creases) * 2**levels] = True
+    np.testing.assert_array_equal(got, expected)
+    P = jnp.asarray(_points(n, seed=5))
+    np.testing.assert_array_equal(kinks(tuple(t.apply(P) for t in tangents)), expected)

@@ -1409,6 +1409,7 @@ def test_model_hessian_with_parameters_matches_finite_differences_at_zero_residu
                           num_target=m)
     P = jnp.asarray(TRUE_CONTROL / 2.0)
     A, V, _ = objective.basis_of(scheme, jnp.float64)
+    A, V = A.dense(), None if V is None else V.dense()
     N = A.shape[0]
     # Samples on the model's curve, between its exact samples (not at its vertices,
     # where the chords' distance has a kink).
@@ -1476,14 +1477,22 @@ def _area(curve):
     return 0.5 * jnp.sum(x * jnp.roll(y, -1) - jnp.roll(x, -1) * y)
 
 
-def test_the_start_held_fixed_is_kept_with_its_derivatives_where_its_rms_is_lower():
+def test_the_start_held_fixed_is_kept_with_its_derivatives_where_its_rms_is_lower(monkeypatch):
     """On the horse the profile's joint fit has the higher two-sided RMS, so
     fit_params=True returns the fit with w held at its start: the same control points
     as `fit` with w fixed (its own program), and the same derivatives with respect to
     the samples (the fixed fit's are checked against finite differences above; on a
     pixel silhouette the fit jumps between local minima under small perturbations, so
     differences of it do not converge). Before, the start's fit carried no derivatives: the
-    profile is under `stop_gradient`."""
+    profile is under `stop_gradient`.
+
+    Which local minimum the joint fit reaches depends on rounding, so a differentiated
+    program (another program) may find a better one and rightly return it (at XLA's
+    optimisation level 0 one did: w = 0.128, RMS 3.19 against 3.39). The derivatives
+    are therefore checked with the choice made for the start (`prefer_start` shown a
+    joint RMS of inf; the choice itself is tested below), and the program says so."""
+    from fitting import _core
+
     samples = jnp.asarray(horse_outline())
     scheme = js.FourPoint()
     fixed = fitting.fit(samples, scheme, 24)
@@ -1499,7 +1508,20 @@ def test_the_start_held_fixed_is_kept_with_its_derivatives_where_its_rms_is_lowe
     area = lambda x, **kw: _area(fitting.fit(x, scheme, 24, **kw).curve)
     expected = jax.jit(lambda x: jax.jvp(area, (x,), (direction,))[1])(samples)
     assert abs(float(expected)) > 1e-3  # the check below is not of zeros
-    gradient = jax.jit(jax.grad(lambda x: area(x, fit_params=True)))(samples)
+    choose = _core.prefer_start
+    monkeypatch.setattr(_core, "prefer_start", lambda solved, measured, start: choose(
+        solved, measured | {"rms": jnp.full_like(measured["rms"], jnp.inf)}, start))
+    jax.clear_caches()  # no program traced with the real choice
+
+    def kept(x):
+        result = fitting.fit(x, scheme, 24, fit_params=True)
+        return _area(result.curve), result.params_held
+
+    try:
+        gradient, held = jax.jit(jax.grad(kept, has_aux=True))(samples)
+    finally:
+        jax.clear_caches()  # nor this one for the tests after
+    assert bool(held)
     np.testing.assert_allclose(jnp.sum(gradient * direction), expected, rtol=1e-8)
 
 
