@@ -125,22 +125,24 @@ ORDER_SAMPLES_LIMIT = 5000
 def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
                ordered: bool = True) -> int:
     """An estimate, in bytes, of the arrays one fit of `m` samples (its shape bucket)
-    holds: about 10 copies of the dense curve basis (N curve samples x n control
-    points, with its tangents and their products), 3 blocks of the
+    holds: 10 N n numbers for N curve samples and n control points (about 10 copies of
+    the dense curve basis, which the fit held until 2026-12-07 and now reads from its
+    stencil tables: kept as margin), 3 blocks of the
     foot-point searches' points-by-anchors distances (at most `_curve.BLOCK_PAIRS`
     entries each: they run in blocks of samples) and the reported maximum's
     refinement (`_curve.all_distances`: up to 8 numbers for each of at most
-    `BLOCK_PAIRS` pairs), and about 400 numbers per sample;
+    `BLOCK_PAIRS` pairs), and 1,200 numbers per sample;
     with `ordered=False` also the m x m arrays of `order_samples` (measured: 0.63 GB
     at m = 5,000, about 3 float64 copies; 4 are counted). Linear in `m` at fixed
     `levels`, and at the default `levels` too (which grow with log m).
 
     Measured (`benchmarks/bench_fit_memory.py`, cubic B-spline, n = 32, default
-    levels): the peak less the 0.69 GB of a fit of 400 samples was 54, 43 and 115 MB
-    at 4,000, 16,000 and 32,000 samples, 0.2-0.4x this estimate (before the blocked
-    searches: 1.1 and 4.6 GB at 16,000 and 32,000). Those measurements predate the
-    curve stencil tables, which no longer refine the identity into the basis, so the
-    estimate is now more conservative still.
+    levels; the peak less that of a fit of 400 samples): 54, 43 and 115 MB at 4,000,
+    16,000 and 32,000 samples on 2026-12-01; on 2026-12-07 208, 415 and 513 MB with
+    the code of that morning (a15acd1, `results/fit_memory_a15acd1.md`), above the
+    estimate of then (400 numbers per sample: 152, 304 and 508 MB), and 159, 331 and
+    432 MB with the stencil tables (`results/fit_memory.md`), so 1,200 numbers per
+    sample since (178, 409 and 717 MB).
     """
     N = curve_samples(scheme, n, levels, boundary)
     anchors = N // max(1, min(8, N // 64))
@@ -151,7 +153,7 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
     refine = 8 * min(REFINE_MAX * m, BLOCK_PAIRS)
     searches = 3 * min(m * anchors, BLOCK_PAIRS) + refine
     ordering = 0 if ordered else 4 * 8 * m * m  # order_samples works in float64
-    return itemsize * (10 * N * n + searches + 400 * m) + ordering
+    return itemsize * (10 * N * n + searches + 1200 * m) + ordering
 
 
 class MemoryBudgetError(ValueError):
