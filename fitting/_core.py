@@ -75,7 +75,10 @@ def end_pivots(scheme, n: int, levels: int, boundary: str) -> tuple[int, int]:
                 f"values, and this {type(scheme).__name__}'s are traced: pass it with "
                 "concrete values (trace the samples, not the scheme)."
             ) from None
-    table = js.curve_stencil(scheme, n, levels, boundary=boundary)
+    # Concrete values even inside a caller's `jax.jit` (the scheme is concrete here; a
+    # table built under the trace had traced weights, and `fit` failed under `jit`).
+    with jax.ensure_compile_time_eval():
+        table = js.curve_stencil(scheme, n, levels, boundary=boundary)
     first, last = np.abs(np.asarray(table.weights))[[0, -1]]
     start, end = np.asarray(table.first)[[0, -1]]
     width = first.size

@@ -85,9 +85,10 @@ def test_pinned_fit_recovers_an_open_bspline():
 
 
 def test_derivatives_through_the_pinned_ends():
-    """The curve's ends are the end samples, so their Jacobian with respect to the
-    samples is the identity on those two and zero elsewhere (a closed form); the
-    control points' derivative along a random direction matches central differences."""
+    """The curve's ends are the end samples (also under `jax.jit`), so their Jacobian
+    with respect to the samples is the identity on those two and zero elsewhere (a
+    closed form); the control points' derivative along a random direction matches
+    central differences."""
     samples = jnp.asarray(_stroke(120, seed=3))
     options = dict(boundary="open", pin_ends=True, tol=1e-12, max_steps=400)
     ends = jax.jacrev(lambda t: fitting.fit(t, js.CubicBSpline(), 8, **options).curve[
@@ -96,6 +97,10 @@ def test_derivatives_through_the_pinned_ends():
     for k, i in enumerate((0, 119)):
         expected[k, :, i, :] = np.eye(2)
     np.testing.assert_allclose(np.asarray(ends), expected, atol=1e-9)
+    # Under `jax.jit` too (the pivots' table was built under the trace and failed).
+    jitted = jax.jit(lambda t: fitting.fit(t, js.CubicBSpline(), 8, **options).curve[
+        jnp.array([0, -1])])(samples)
+    np.testing.assert_allclose(np.asarray(jitted), np.asarray(samples)[[0, -1]], atol=1e-12)
 
     direction = np.random.default_rng(5).standard_normal(samples.shape)
     weights = np.random.default_rng(6).standard_normal((8, 2))
