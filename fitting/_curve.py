@@ -901,12 +901,18 @@ def tangents_of(V, P: Float[Array, "n d"]):
 
 
 def stencil_rows(table: js.CurveStencil, index) -> Float[Array, "k n"]:
-    """Rows `index` `(k,)` (integers, may be traced) of `table` as dense `(k, n)` rows:
-    O(k n), not the O(N n) of the whole dense table."""
-    index = jnp.asarray(index)
-    columns = jnp.asarray(table.columns())[index]  # (k, width)
-    rows = jnp.zeros((index.shape[0], table.n), table.weights.dtype)
-    return rows.at[jnp.arange(index.shape[0])[:, None], columns].add(table.weights[index])
+    """Rows `index` `(k,)` (integers; a NumPy array reads the columns on the host, a
+    traced one gathers them) of `table` as dense `(k, n)` rows, not the O(N n) of the
+    whole dense table. Repeated columns (windows wider than the polygon) add up."""
+    if np.ndim(index) != 1:
+        raise ValueError(f"`index` must be one-dimensional, got shape {np.shape(index)}")
+    if isinstance(index, np.ndarray):
+        columns = jnp.asarray(table.columns()[index])  # (k, width), host constants
+    else:
+        columns = jnp.asarray(table.columns())[index]
+    k = columns.shape[0]
+    rows = jnp.zeros((k, table.n), table.weights.dtype)
+    return rows.at[jnp.arange(k)[:, None], columns].add(table.weights[index])
 
 
 def kinks(V) -> Bool[Array, " N"] | None:
@@ -919,7 +925,8 @@ def kinks(V) -> Bool[Array, " N"] | None:
     if isinstance(right, js.CurveStencil):
         # Static: rows on the same windows, no control point twice in one (the dense
         # rows sum repeated columns).
-        if np.array_equal(right.first, left.first) and right.width <= right.n:
+        if (np.array_equal(right.first, left.first) and right.width == left.width
+                and right.width <= right.n):
             right, left = right.weights, left.weights
         else:
             right, left = right.dense(), left.dense()
