@@ -1487,8 +1487,11 @@ def test_the_start_held_fixed_is_kept_with_its_derivatives_where_its_rms_is_lowe
     profile is under `stop_gradient`.
 
     Which local minimum the joint fit reaches depends on rounding, so a differentiated
-    program (another program) may find a better one and rightly return it (at XLA's
-    optimisation level 0 one did: w = 0.128, RMS 3.19 against 3.39). The derivatives
+    program (another program than the concrete fit's) may find a better one and rightly
+    return it (one did, in the suite, once the curve was read from its stencil tables:
+    w = 0.128, RMS 3.19 against 3.39; so `fit(x)` and `grad` of it may follow different
+    minima on this pixel silhouette, a sensitivity of the fit, not of its derivatives,
+    which agreed computed directly). The derivatives
     are therefore checked with the choice made for the start (`prefer_start` shown a
     joint RMS of inf; the choice itself is tested below), and the program says so."""
     from fitting import _core
