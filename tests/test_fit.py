@@ -2200,9 +2200,14 @@ def test_a_glyph_sliding_along_a_flat_valley_converges():
     first point, as `benchmarks/bench_fit_quality.py` samples it) crawls: every step
     lowers the loss by a little more than tol (1e-7) of itself, with the Hessian
     indefinite, and it ran out of its 500 steps (issue #14; the per-step rule ended it
-    at step 1,313, the RMS 4e-4 lower). The plateau rule ends it as converged at step
+    at step 1,313, the RMS 4e-4 lower). The plateau rule ended it as converged at step
     100; going on from there (a new fit started at its control points, up to 300 more
-    steps, the plateau rule off) lowered the RMS by 0.33% (measured), under 1%."""
+    steps, the plateau rule off) lowered the RMS by 0.33% (measured), under 1%. Whether
+    it crawls follows the compiled program's rounding: on another machine on 2026-12-07
+    the same code converged by the per-step rule at step 39, and reading the curve from
+    its stencil tables at step 46, so the steps are not asserted here (the plateau rule
+    has its own test above); that it ends within the limit, as converged, and within 1%
+    of going on, is."""
     from matplotlib.font_manager import FontProperties
     from matplotlib.textpath import TextPath
 
@@ -2213,7 +2218,7 @@ def test_a_glyph_sliding_along_a_flat_valley_converges():
     outer = outer[:-1] if np.allclose(outer[0], outer[-1]) else outer
     samples = resample_closed(outer, 400, offset=0.0)
     result = fitting.fit(samples, js.CubicBSpline(), 32)
-    assert bool(result.converged) and 50 <= int(result.num_steps) < 500
+    assert bool(result.converged) and int(result.num_steps) < 500
     more = fitting.fit(samples, js.CubicBSpline(), 32, init=result.control_points,
                        max_steps=300, tol=1e-30, on_failure="ignore")
     assert 0 <= float(result.rms - more.rms) < 1e-2 * float(result.rms)
