@@ -1462,7 +1462,10 @@ def test_fitted_parameters_never_do_worse_than_the_start_held_fixed(outline, sch
     fixed = fitting.fit(samples, scheme, n)
     fitted = fitting.fit(samples, scheme, n, fit_params=True)
     independent = lambda r: two_sided_rms(np.asarray(r.curve), samples)
-    assert float(fitted.rms) <= float(fixed.rms) * (1 + 1e-9)
+    # To the solver's tolerance (1e-7): where the start's fit is returned it comes from
+    # the fit_params program, which may round differently from the fixed fit's and stop
+    # a step apart (1.2e-9 of the RMS on the horse).
+    assert float(fitted.rms) <= float(fixed.rms) * (1 + 1e-7)
     assert independent(fitted) <= independent(fixed) * (1 + 1e-6)
     # Where the start's fit was returned, it has the start's values.
     values = lambda s: [float(x) for x in jax.tree.leaves(s)]
@@ -1502,8 +1505,11 @@ def test_the_start_held_fixed_is_kept_with_its_derivatives_where_its_rms_is_lowe
     fitted = fitting.fit(samples, scheme, 24, fit_params=True)
     assert float(fitted.scheme.w) == pytest.approx(1 / 16, rel=1e-12)
     assert fixed.params_held is None and bool(fitted.params_held)
-    np.testing.assert_allclose(fitted.control_points, fixed.control_points, rtol=0, atol=1e-9)
-    assert float(fitted.rms) == pytest.approx(float(fixed.rms), rel=1e-9)
+    # The same fit to the solver's tolerance: the two programs may round differently
+    # (1.5e-7 of the size and 1.2e-9 of the RMS apart with XLA's fusion emitters off).
+    size = float(jnp.max(jnp.ptp(samples, axis=0)))
+    np.testing.assert_allclose(fitted.curve, fixed.curve, rtol=0, atol=1e-6 * size)
+    assert float(fitted.rms) == pytest.approx(float(fixed.rms), rel=1e-7)
     direction = jnp.asarray(np.random.default_rng(3).standard_normal(samples.shape))
     # Traced, the choice is made by `jnp.where` (as in `fit_batch`); reverse mode goes
     # through the profile's `lax.map` (forward mode too: its rule is a custom JVP).
@@ -1767,10 +1773,18 @@ def test_a_warm_start_on_exact_data_is_not_a_poor_local_minimum(shape, n, settin
 
 
 def test_fit_under_filter_jit():
+    """The fit traced into a larger program gives the fit run on its own, to the
+    solver's tolerance: the two are different programs, which XLA may round
+    differently (with its fusion emitters off, as in this suite, they part at step 1
+    and end 1.1e-7 of the size apart at tol 1e-7, 29 steps each), so their curves, not
+    bits, are compared."""
     samples, _ = _small_problem()
+    size = float(jnp.max(jnp.ptp(samples, axis=0)))
     jitted = eqx.filter_jit(lambda t: fitting.fit(t, js.CubicBSpline(), 8, levels=6))
     a, b = jitted(samples), fitting.fit(samples, js.CubicBSpline(), 8, levels=6)
-    np.testing.assert_allclose(a.control_points, b.control_points, atol=1e-10)
+    assert bool(a.converged) and bool(b.converged)
+    np.testing.assert_allclose(a.curve, b.curve, rtol=0, atol=1e-6 * size)
+    assert float(a.rms) == pytest.approx(float(b.rms), rel=1e-6)
 
 
 # --------------------------------------------------------------------------------------
