@@ -3,6 +3,9 @@
     python benchmarks/bench_fit_compile.py                         # the installed tree, 3 runs
     python benchmarks/bench_fit_compile.py --src /tmp/before --src . --repeat 3
     python benchmarks/bench_fit_compile.py --smoke                 # 1 run, fixed program only
+    python benchmarks/bench_fit_compile.py --xla-flags "" --label default \
+        --xla-flags "--xla_cpu_use_fusion_emitters=false" --label no-emitters \
+        --output benchmarks/results/fit_compile_xla_flags.json
 
 Each run is a new Python process (no persistent compilation cache) that builds one of
 the fit's programs and calls it twice: the first call traces, lowers and compiles it,
@@ -17,7 +20,12 @@ and the warm call's wall time, and JAX's own durations of tracing, lowering to M
 XLA's compilation (`jax.monitoring` events, summed over the programs it compiled), the
 median of five warm calls, and the value computed (to see that every variant agrees).
 
-With several `--src` trees the runs interleave (run 1 of every tree and program, then run
+`--xla-flags` runs the children with `XLA_FLAGS` set to the given flags instead of
+inherited (`""`: none), to compare XLA's compile options (the test suite's, say) on one
+tree; with several `--src` trees, one `--xla-flags` applies to all, or give one per
+tree. Each tree and flag set is a variant.
+
+With several variants the runs interleave (run 1 of every tree and program, then run
 2, ...), so that the machine's drift over the minutes of a run touches all alike;
 compare the trees' medians within one run. The children prepend the tree to
 `PYTHONPATH`, and report the file they imported `fitting` from.
@@ -88,9 +96,13 @@ print(json.dumps({"first": first, "warm": warm, "trace": pick("jaxpr_trace_durat
 """
 
 
-def run_child(program: str, src: Path | None, scratch: Path) -> dict:
+def run_child(program: str, src: Path | None, xla_flags: str | None, scratch: Path) -> dict:
     env = dict(os.environ, JAXSUBDIV_COMPILATION_CACHE="off", XDG_CACHE_HOME=str(scratch))
     env.pop("JAX_COMPILATION_CACHE_DIR", None)
+    if xla_flags is not None:  # (XLA reads a value that is not flags as a file name)
+        env.pop("XLA_FLAGS", None)
+        if xla_flags.strip():
+            env["XLA_FLAGS"] = xla_flags.strip()
     if src is not None:
         env["PYTHONPATH"] = os.pathsep.join([str(src)] + ([env["PYTHONPATH"]]
                                                            if env.get("PYTHONPATH") else []))
@@ -122,8 +134,10 @@ def markdown(report: dict) -> str:
                          f"{fmt([r['compile'] for r in runs])} | "
                          f"{statistics.median(r['warm'] for r in runs):.3f} | "
                          f"{first / base:.2f} | {runs[0]['value']:.10g} |")
-    lines += ["", "Trees: " + "; ".join(f"`{t['label']}`: {t['module']}" for t in report["trees"]),
-              ""]
+    lines += ["", "Trees: " + "; ".join(
+        f"`{t['label']}`: {t['module']}"
+        + ("" if t.get("xla_flags") is None else f", XLA_FLAGS `{t['xla_flags'] or '(none)'}`")
+        for t in report["trees"]), ""]
     return "\n".join(lines)
 
 
@@ -131,16 +145,26 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--src", type=Path, action="append",
                         help="a source tree to measure (repeatable; default: the installed one)")
-    parser.add_argument("--label", action="append", help="a name for each --src, in order")
+    parser.add_argument("--xla-flags", action="append",
+                        help="XLA_FLAGS for the children (repeatable: one variant each; "
+                             "default: inherited)")
+    parser.add_argument("--label", action="append",
+                        help="a name for each variant (--src or --xla-flags), in order")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--programs", default=",".join(PROGRAMS))
     parser.add_argument("--smoke", action="store_true", help="1 run of the fixed program")
     parser.add_argument("--output", type=Path, default=RESULTS / "fit_compile.json")
     args = parser.parse_args(argv)
     sources = [s.resolve() for s in args.src] if args.src else [None]
-    labels = args.label or [s.name if s else "installed" for s in sources]
-    if len(labels) != len(sources):
-        parser.error("give one --label per --src")
+    flag_sets = args.xla_flags or [None]
+    if len(sources) > 1 and len(flag_sets) > 1 and len(sources) != len(flag_sets):
+        parser.error("give one --xla-flags for all --src trees, or one per tree")
+    count = max(len(sources), len(flag_sets))
+    sources, flag_sets = sources * (count // len(sources)), flag_sets * (count // len(flag_sets))
+    labels = args.label or [(s.name if s else "installed") + ("" if f is None else f" {f}")
+                            for s, f in zip(sources, flag_sets)]
+    if len(labels) != count:
+        parser.error("give one --label per variant (--src or --xla-flags)")
     programs = ["fixed"] if args.smoke else args.programs.split(",")
     repeat = 1 if args.smoke else args.repeat
     load_before = " ".join(f"{x:.2f}" for x in os.getloadavg())
@@ -148,8 +172,8 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as scratch:
         for index in range(repeat):
             for program in programs:
-                for src, label in zip(sources, labels):
-                    result = run_child(program, src, Path(scratch))
+                for src, flags, label in zip(sources, flag_sets, labels):
+                    result = run_child(program, src, flags, Path(scratch))
                     modules[label] = result.pop("module")
                     runs.append({"program": program, "tree": label, "run": index, **result})
                     print(f"run {index + 1}/{repeat} {program:6s} {label:12s} first "
@@ -162,7 +186,8 @@ def main(argv=None) -> int:
         "load_before": load_before,
         "load_after": " ".join(f"{x:.2f}" for x in os.getloadavg()),
         "repeat": repeat, "programs": programs,
-        "trees": [{"label": label, "module": modules[label]} for label in labels],
+        "trees": [{"label": label, "module": modules[label], "xla_flags": flags}
+                  for label, flags in zip(labels, flag_sets)],
         "runs": runs,
     }
     args.output.parent.mkdir(parents=True, exist_ok=True)
