@@ -3,8 +3,8 @@
     python benchmarks/bench_fit_compile.py                         # the installed tree, 3 runs
     python benchmarks/bench_fit_compile.py --src /tmp/before --src . --repeat 3
     python benchmarks/bench_fit_compile.py --smoke                 # 1 run, fixed program only
-    python benchmarks/bench_fit_compile.py --xla-flags "" --label default \
-        --xla-flags "--xla_cpu_use_fusion_emitters=false" --label no-emitters \
+    python benchmarks/bench_fit_compile.py --xla-flags= --label default \
+        --xla-flags=--xla_cpu_use_fusion_emitters=false --label no-emitters \
         --output benchmarks/results/fit_compile_xla_flags.json
 
 Each run is a new Python process (no persistent compilation cache) that builds one of
@@ -20,10 +20,11 @@ and the warm call's wall time, and JAX's own durations of tracing, lowering to M
 XLA's compilation (`jax.monitoring` events, summed over the programs it compiled), the
 median of five warm calls, and the value computed (to see that every variant agrees).
 
-`--xla-flags` runs the children with `XLA_FLAGS` set to the given flags instead of
-inherited (`""`: none), to compare XLA's compile options (the test suite's, say) on one
-tree; with several `--src` trees, one `--xla-flags` applies to all, or give one per
-tree. Each tree and flag set is a variant.
+`--xla-flags=FLAGS` (with `=`, as the value starts with dashes) runs the children with
+`XLA_FLAGS` set to the given flags instead of inherited (`--xla-flags=`: none), to
+compare XLA's compile options (the test suite's, say) on one tree; with several `--src`
+trees, one `--xla-flags` applies to all, or give one per tree. Each tree and flag set
+is a variant.
 
 With several variants the runs interleave (run 1 of every tree and program, then run
 2, ...), so that the machine's drift over the minutes of a run touches all alike;
