@@ -162,10 +162,13 @@ def main(argv=None) -> int:
         parser.error("give one --xla-flags for all --src trees, or one per tree")
     count = max(len(sources), len(flag_sets))
     sources, flag_sets = sources * (count // len(sources)), flag_sets * (count // len(flag_sets))
-    labels = args.label or [(s.name if s else "installed") + ("" if f is None else f" {f}")
+    labels = args.label or [(s.name if s else "installed")
+                            + ("" if f is None else f" {f.strip() or '(no XLA_FLAGS)'}")
                             for s, f in zip(sources, flag_sets)]
     if len(labels) != count:
         parser.error("give one --label per variant (--src or --xla-flags)")
+    if len(set(labels)) != count:
+        parser.error(f"the variants' labels must differ (got {labels}); give --label")
     programs = ["fixed"] if args.smoke else args.programs.split(",")
     repeat = 1 if args.smoke else args.repeat
     load_before = " ".join(f"{x:.2f}" for x in os.getloadavg())

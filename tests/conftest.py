@@ -10,17 +10,37 @@ import tempfile
 # 21 of the heaviest tests compiled in 0.68x the time and ran in 0.78x; whole runs took
 # 0.81x, 1908 s against 2361 s under similar load; the programs ran 2-5x slower).
 # Tests check values, not speed; the demo and the benchmarks run fully optimised
-# programs. XLA's CPU fusion emitters (MLIR, one LLVM module per fusion) are switched
-# off too: the older emitters compile the fit's programs in less than half the time
-# (2026-12-07, 2 cores, load 1.3-2: `tests/test_fit.py` and `test_fit_ends.py` spent
-# 514 s compiling instead of 1110 s, and ran in 542 s instead of 869 s with two
-# workers; one fit's programs 1.6 s instead of 3.8 s). A fit traced into a larger
+# programs. XLA's CPU fusion emitters (MLIR) are switched off too: the older emitters
+# compile the fit's programs at level 0 in 0.35-0.60x the time, warm within 10%
+# (`benchmarks/bench_fit_compile.py --xla-flags`, `results/fit_compile_xla_flags.md`;
+# the whole suite: `benchmarks/results/test_suite_time.md`). A fit traced into a larger
 # program may then round differently from the fit run alone, so tests compare such
-# pairs to the solver's tolerance, not bit for bit. Set before JAX starts its
-# backend; subprocesses inherit them.
-for _flag in ("--xla_backend_optimization_level=0", "--xla_cpu_use_fusion_emitters=false"):
-    if _flag.split("=")[0] not in os.environ.get("XLA_FLAGS", ""):
-        os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {_flag}".strip()
+# pairs to the solver's accuracy, not bit for bit. A flag the user set in XLA_FLAGS
+# (either value) is kept. XLA stops a process at a flag it does not know, so the
+# emitters' flag, which older and later XLAs may lack, is tried in a subprocess first
+# (once: xdist's workers and other subprocesses inherit the result). Set before JAX
+# starts its backend.
+
+
+def _set_xla_flag(flag: str, probe: bool) -> None:
+    given = {f.split("=")[0] for f in os.environ.get("XLA_FLAGS", "").split()}
+    if flag.split("=")[0] in given:
+        return
+    flags = f"{os.environ.get('XLA_FLAGS', '')} {flag}".strip()
+    if probe:
+        import subprocess
+        import sys
+
+        code = "import jax.numpy as jnp; jnp.zeros(1).block_until_ready()"
+        known = subprocess.run([sys.executable, "-c", code], capture_output=True,
+                               env=dict(os.environ, XLA_FLAGS=flags)).returncode == 0
+        if not known:
+            return
+    os.environ["XLA_FLAGS"] = flags
+
+
+_set_xla_flag("--xla_backend_optimization_level=0", probe=False)
+_set_xla_flag("--xla_cpu_use_fusion_emitters=false", probe=True)
 
 import jax  # noqa: E402
 import pytest  # noqa: E402
