@@ -158,7 +158,8 @@ def fit(
       is never above that of the fit with the parameters held at their start: for
       `FourPoint` and `SplitTweak` the fit `fit` makes with them fixed, to the solver's
       tolerance (two programs, which may round differently and stop a step apart;
-      measured 1.2e-9 of the RMS apart on the horse) (`CornerCutting`'s fitted model is chords at one more level than its fixed one).
+      measured 1.2e-9 of the RMS apart on the horse). `CornerCutting`'s fitted model is
+      chords at one more level than its fixed one.
       On scikit-image's horse the joint fit's was up to 7.7% above. Default (None): 8 for
       one parameter (9 fits before the joint one), 5 for r and s (26). 0: the joint
       fit from the start alone, without that guarantee. At most 64 grid fits.
