@@ -138,7 +138,8 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
 
     Measured (`benchmarks/bench_fit_memory.py`, cubic B-spline, n = 32, default
     levels; the peak less that of a fit of 400 samples): 54, 43 and 115 MB at 4,000,
-    16,000 and 32,000 samples on 2026-12-01 (`results/fit_memory_027fd27.md`); on 2026-12-07 208, 415 and 513 MB with
+    16,000 and 32,000 samples on 2026-12-01 (`results/fit_memory_027fd27.md`); on
+    2026-12-07 208, 415 and 513 MB with
     the code of that morning (a15acd1, `results/fit_memory_a15acd1.md`), above the
     estimate of then (400 numbers per sample: 152, 304 and 508 MB), and 159, 331 and
     432 MB with the stencil tables (`results/fit_memory.md`), so 1,200 numbers per
