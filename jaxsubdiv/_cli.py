@@ -1095,6 +1095,14 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = _parser().parse_args(argv)
     args.command_line = shlex.join(["jaxsubdiv", *argv])
+    from ._xla_flags import command_compile_flags
+
+    with command_compile_flags():
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the parsed command; its exit status (errors reported as `_report` says)."""
     import jax
 
     # Files, analysis and fits in float64 (an application may set this; the library

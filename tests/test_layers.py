@@ -55,7 +55,10 @@ LAYERS = (
         "jaxsubdiv.shapes",
         "jaxsubdiv._cache",
     )),
-    ("applications", ("jaxsubdiv._cli", "jaxsubdiv._editor*", "jaxsubdiv.editor")),
+    ("applications", (
+        "jaxsubdiv._cli", "jaxsubdiv._editor*", "jaxsubdiv.editor",
+        "jaxsubdiv._xla_flags",  # the command's own XLA flags
+    )),
 )  # fmt: skip
 
 # --------------------------------------------------------------------------- the graph

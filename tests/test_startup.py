@@ -7,6 +7,8 @@ import subprocess
 import sys
 import textwrap
 
+import jax
+import numpy as np
 import pytest
 
 import jaxsubdiv as js
@@ -134,3 +136,95 @@ def test_cache_folder_default_and_arguments(tmp_path, monkeypatch):
     for bad in (0, -1, 1.5, True):
         with pytest.raises(ValueError, match="max_size"):
             js.enable_compilation_cache(tmp_path, max_size=bad)
+
+
+# The command's XLA flags (jaxsubdiv._xla_flags): XLA's CPU fusion emitters off in the
+# command's own process, for the jaxlib releases it was tried on, unless the user chose.
+_EMITTERS_OFF = "--xla_cpu_use_fusion_emitters=false"
+_FLAG_CASES = [
+    # (XLA_FLAGS given, jaxlib release, XLA_FLAGS the command runs with; None: as given)
+    (None, (0, 10, 2), _EMITTERS_OFF),
+    ("--xla_backend_optimization_level=0", (0, 10, 2),
+     "--xla_backend_optimization_level=0 " + _EMITTERS_OFF),
+    ("--xla_cpu_use_fusion_emitters=true", (0, 10, 2), None),  # the user's choice
+    ("  --xla_cpu_use_fusion_emitters  ", (0, 10, 2), None),
+    (None, (0, 5, 1), None),  # XLA of jaxlib 0.5.1 stops at the flag (tried)
+    (None, (99, 0, 0), None),  # a release nobody tried: XLA may not know the flag
+    (None, None, None),  # jaxlib not installed as a package
+]
+
+
+@pytest.mark.parametrize("given, jaxlib, expected", _FLAG_CASES)
+def test_command_xla_flags(given, jaxlib, expected):
+    from jaxsubdiv._xla_flags import VERIFIED_JAXLIB, command_xla_flags
+
+    if jaxlib == (0, 10, 2):
+        assert VERIFIED_JAXLIB[0] <= jaxlib <= VERIFIED_JAXLIB[1]  # the case's premise
+    environ = {} if given is None else {"XLA_FLAGS": given}
+    assert command_xla_flags(environ, jaxlib) == expected
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("0.10.2", (0, 10, 2)), ("0.5.0rc1", (0, 5, 0)), ("0.4.36.dev20241122", (0, 4, 36)),
+    ("1.2", None), ("unknown", None)])
+def test_jaxlib_release(text, expected):
+    from jaxsubdiv._xla_flags import release
+
+    assert release(text) == expected
+
+
+def test_command_compile_flags_are_given_back(monkeypatch):
+    """Set for the command's block and removed (or restored) after it; left alone in a
+    process whose JAX backend had started (XLA has read its flags)."""
+    from jaxsubdiv import _xla_flags
+
+    monkeypatch.setattr(_xla_flags, "_jaxlib_release", lambda: (0, 10, 2))
+    for before in (None, "--xla_backend_optimization_level=0"):
+        if before is None:
+            monkeypatch.delenv("XLA_FLAGS", raising=False)
+        else:
+            monkeypatch.setenv("XLA_FLAGS", before)
+        for started in (False, True):
+            with monkeypatch.context() as m:
+                m.setattr(_xla_flags, "_backend_started", lambda: started)
+                with _xla_flags.command_compile_flags():
+                    inside = os.environ.get("XLA_FLAGS")
+            assert inside == (before if started else f"{before or ''} {_EMITTERS_OFF}".strip())
+            assert os.environ.get("XLA_FLAGS") == before
+    jax.numpy.zeros(1).block_until_ready()
+    assert _xla_flags._backend_started()
+
+
+def test_the_command_runs_with_the_fusion_emitters_off_where_jaxlib_knows_the_flag(tmp_path):
+    """The `jaxsubdiv` command in a fresh process with the user's XLA_FLAGS lacking the
+    flag: XLA takes it (it stops the process at a flag it does not know) on the installed
+    jaxlib where that release was tried, and the refined points are right (Chaikin's
+    rule, written here)."""
+    from importlib.metadata import version
+
+    from jaxsubdiv._xla_flags import VERIFIED_JAXLIB, release
+
+    code = """
+        import json, os
+        import jaxsubdiv._cli as cli
+        seen = []
+        run = cli._run
+        def spy(args):
+            seen.append(os.environ.get("XLA_FLAGS"))
+            return run(args)
+        cli._run = spy
+        status = cli.main(["refine", "--shape", "square", "--scheme", "chaikin",
+                           "--levels", "1", "-o", OUT])
+        print(json.dumps([status, seen[0], os.environ.get("XLA_FLAGS")]))
+    """.replace("OUT", repr(str(tmp_path / "refined.csv")))
+    given = "--xla_backend_optimization_level=0"
+    (status, inside, after), _ = _python(code, env={"XLA_FLAGS": given})
+    assert status == 0 and after == given
+    first, last = VERIFIED_JAXLIB
+    tried = first <= release(version("jaxlib")) <= last
+    assert inside == (f"{given} {_EMITTERS_OFF}" if tried else given)
+    square = np.loadtxt(tmp_path / "refined.csv", delimiter=",")
+    polygon = np.array(js.shapes.get("square"))
+    chaikin = [w for p, q in zip(polygon, np.roll(polygon, -1, axis=0))
+               for w in (0.75 * p + 0.25 * q, 0.25 * p + 0.75 * q)]
+    np.testing.assert_allclose(square, chaikin, rtol=0, atol=1e-12)
