@@ -7,7 +7,8 @@
 
 Every figure is what a user waits for when typing a command: a new Python process that
 imports the library, parses the command line, traces and compiles, runs and exits.
-Scenarios (`SCENARIOS` below): `import jaxsubdiv`; `--help`; a usage error; `demo`; a
+Scenarios (`SCENARIOS` below): `import jaxsubdiv`; `import jax` (what any command
+that computes pays first: its dependencies' versions matter, see `pyproject.toml`); `--help`; a usage error; `demo`; a
 fit of the glyph 'S'; a fit of a file with two contours of different lengths (300 and
 517 samples). The last three run under two conditions of the persistent compilation
 cache, selected by `JAXSUBDIV_COMPILATION_CACHE`: `cold` (a fresh empty folder per run)
@@ -114,6 +115,7 @@ atexit.register(_dump)
 # Exit code 1 of `fit` and `demo` means "did not converge": recorded, not a failure.
 SCENARIOS = {
     "import": (IMPORT, [], (0,), False, True),
+    "import-jax": ("import jax", [], (0,), False, False),
     "help": (CLI, ["--help"], (0,), False, False),
     "usage-error": (CLI, ["fit", "--n", "notanumber"], (2,), False, False),
     "demo": (CLI, ["demo", "-o", "{tmp}/demo.png"], (0, 1), True, True),
