@@ -99,6 +99,7 @@ if _probe["monitored"]:
     jax.monitoring.register_event_listener(_on_event)
 def _dump():
     _probe["jax_imported"] = "jax" in sys.modules
+    _probe["xla_flags"] = os.environ.get("XLA_FLAGS")
     _module = sys.modules.get("jaxsubdiv")
     _probe["jaxsubdiv_file"] = getattr(_module, "__file__", None)
     if _probe["monitored"]:

@@ -1,19 +1,22 @@
 """Compare the `jaxsubdiv` command's start-up between variants, interleaved in one run.
 
     python benchmarks/bench_startup_compare.py before=/tmp/before after=. \\
-        --rounds 3 --scenarios demo,fit-glyph --output benchmarks/results/startup_compare.json
+        --rounds 4 --scenarios demo,fit-glyph --output benchmarks/results/startup_compare.json
 
 A variant is `LABEL=PATH[,PATH...]`: the paths go in front of `PYTHONPATH` in its
 children (a source tree, and perhaps a folder of other package versions, such as
 `pip install --target DIR ml_dtypes==0.6.0`). Each round runs every scenario of
-`bench_startup.py` (its `SCENARIOS`, cold and warm, by its `measure`, one timed run
-each) for every variant, the variants' order reversed every other round, so that the
-machine's drift falls on all of them alike. Reported per variant: the median (min-max)
-wall time over the rounds and its ratio to the first variant's median, the versions of
-jaxsubdiv, jaxlib and ml_dtypes the children imported, and the compile seconds one
-counting run measured (`bench_startup.py`'s probe, last round).
+`bench_startup.py` (its `SCENARIOS`, cold and warm, by its `measure`: one timed run, and
+its counting probe) for every variant back to back, the variants' order rotated by one
+each round (a round count that is a multiple of the number of variants puts each variant
+in each position equally often), so that a shared machine's drift falls on all alike.
+Reported per variant: the median (min-max) wall time over the rounds and its ratio to the
+first variant's median, the median (min-max) XLA compile seconds of the probes, the
+versions of jaxsubdiv, fitting, jaxlib, ml_dtypes and numpy the children imported, the
+`XLA_FLAGS` they inherited, and the value the command left in it (the probe reads it at
+exit).
 
-Writes the JSON (every run) and a Markdown table beside it.
+Writes the JSON and a Markdown table beside it, at the end of the run.
 """
 
 import argparse
@@ -40,8 +43,9 @@ from bench_startup import (  # noqa: E402
 )
 
 
-_VERSIONS = ("import json, importlib.metadata as m, jaxsubdiv; print(json.dumps("
-             "[jaxsubdiv.__file__] + [m.version(p) for p in ('jaxlib', 'ml_dtypes')]))")
+_VERSIONS = ("import json, importlib.metadata as m, jaxsubdiv, fitting; print(json.dumps("
+             "[jaxsubdiv.__file__, fitting.__file__]"
+             " + [m.version(p) for p in ('jaxlib', 'ml_dtypes', 'numpy')]))")
 
 
 def _variant(text: str) -> tuple[str, list[Path]]:
@@ -58,6 +62,11 @@ def _runner(scratch: Path, paths: list[Path]) -> Runner:
     return runner
 
 
+def _spread(values: list[float]) -> str:
+    return (f"{statistics.median(values):.2f} ({min(values):.2f}-{max(values):.2f})"
+            if values else "")
+
+
 def _markdown(report: dict) -> str:
     meta, variants = report["meta"], report["variants"]
     first = variants[0]["label"]
@@ -67,18 +76,22 @@ def _markdown(report: dict) -> str:
         f"{meta['date']}; {meta['machine']}; Python {meta['python']}; load average "
         f"{meta['load_average_at_start'][0]:.1f} at start, "
         f"{meta['load_average_at_end'][0]:.1f} at end; {meta['rounds']} rounds, the "
-        "variants' order reversed every other round; one timed fresh process per "
-        "variant, scenario and condition in each round (`bench_startup.py`'s scenarios: "
-        "`cold` with an empty compilation cache, `warm` with one an untimed run filled). "
-        "Wall seconds, median (min-max) over the rounds; ratio = median / the "
-        f"`{first}` variant's median; compile s from a counting run in the last round.",
+        "variants' order rotated each round; one timed fresh process per variant, "
+        "scenario and condition in each round (`bench_startup.py`'s scenarios: `cold` "
+        "with an empty compilation cache, `warm` with one an untimed run filled). Wall "
+        "seconds, median (min-max) over the rounds; ratio = median / the "
+        f"`{first}` variant's median; compile s: XLA compile seconds of each round's "
+        "counting run, median (min-max). XLA_FLAGS inherited by the children: "
+        f"`{meta['xla_flags_given'] or '(unset)'}`.",
         "",
         "Variants:",
         "",
     ]
     for v in variants:
         lines.append(f"- `{v['label']}`: PYTHONPATH {', '.join(v['paths'])}; jaxsubdiv "
-                     f"{v['source']}, jaxlib {v['jaxlib']}, ml_dtypes {v['ml_dtypes']}")
+                     f"{v['source']}, jaxlib {v['jaxlib']}, ml_dtypes {v['ml_dtypes']}, numpy "
+                     f"{v['numpy']}; XLA_FLAGS the command left: "
+                     f"`{v.get('xla_flags_in_command') or '(unset)'}`")
     lines += ["", "| scenario | condition | " + " | ".join(
         f"{v['label']} s | ratio | compile s" for v in variants) + " |",
         "|---|---|" + "---:|---:|---:|" * len(variants)]
@@ -89,14 +102,10 @@ def _markdown(report: dict) -> str:
         for v in variants:
             row = next(r for r in report["rows"][v["label"]]
                        if (r["scenario"], r["condition"]) == (scenario, condition))
-            walls = row["walls"]
-            median = statistics.median(walls)
+            median = statistics.median(row["walls"])
             base = median if base is None else base
-            compile_s = row["probe"].get("compile_s")
-            cells += [f"{median:.2f} ({min(walls):.2f}-{max(walls):.2f})"
-                      + ("" if row["ok"] else " (!)"),
-                      f"{median / base:.2f}",
-                      "" if compile_s is None else f"{compile_s:.2f}"]
+            cells += [_spread(row["walls"]) + ("" if row["ok"] else " (!)"),
+                      f"{median / base:.2f}", _spread(row["compile_s"])]
         lines.append(f"| {scenario} | {condition} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -133,30 +142,42 @@ def main(argv=None) -> int:
                 return 1
             found = subprocess.run([sys.executable, "-c", _VERSIONS], env=runner.env,
                                    cwd=folder, capture_output=True, text=True, check=True)
-            file, jaxlib, ml_dtypes = json.loads(found.stdout)
+            file, fitting_file, jaxlib, ml_dtypes, numpy = json.loads(found.stdout)
             tree = Path(file).parent.parent
+            if Path(fitting_file).parent.parent != tree:
+                print(f"{label}: jaxsubdiv from {file} but fitting from {fitting_file}",
+                      file=sys.stderr)
+                return 1
             variants.append({"label": label, "paths": [str(p) for p in paths],
-                             "jaxsubdiv_file": file, "source": _git_state(tree),
-                             "jaxlib": jaxlib, "ml_dtypes": ml_dtypes})
+                             "jaxsubdiv_file": file, "fitting_file": fitting_file,
+                             "source": _git_state(tree), "jaxlib": jaxlib,
+                             "ml_dtypes": ml_dtypes, "numpy": numpy})
         for round_ in range(args.rounds):
-            order = args.variants if round_ % 2 == 0 else args.variants[::-1]
-            for label, _ in order:
-                for name in chosen:
-                    for condition in ("cold", "warm") if SCENARIOS[name][3] else ("-",):
+            shift = round_ % len(args.variants)
+            order = args.variants[shift:] + args.variants[:shift]
+            for name in chosen:
+                for condition in ("cold", "warm") if SCENARIOS[name][3] else ("-",):
+                    for label, _ in order:
                         result = measure(runners[label], name, condition, 1)
                         row = rows[label].setdefault((name, condition), {
                             "scenario": name, "condition": condition, "walls": [],
-                            "ok": True, "probe": {}})
+                            "compile_s": [], "ok": True, "probes": []})
                         row["walls"].append(result["median_wall_s"])
                         row["ok"] = row["ok"] and result["ok"]
-                        row["probe"] = {k: v for k, v in result["probe"].items()
-                                        if k != "compiled"}
+                        probe = {k: v for k, v in result["probe"].items() if k != "compiled"}
+                        row["probes"].append(probe)
+                        if probe.get("compile_s") is not None:
+                            row["compile_s"].append(probe["compile_s"])
+                        if probe.get("xla_flags") is not None:
+                            next(v for v in variants if v["label"] == label)[
+                                "xla_flags_in_command"] = probe["xla_flags"]
                         print(f"round {round_ + 1} {label:12s} {name:16s} {condition:5s} "
                               f"{result['median_wall_s']:6.2f} s"
                               + ("" if result["ok"] else "  UNEXPECTED EXIT CODE"), flush=True)
     report = {
         "meta": {
-            "date": datetime.datetime.now().isoformat(timespec="seconds"),
+            "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "xla_flags_given": os.environ.get("XLA_FLAGS"),
             "machine": f"{_cpu_model()}, {os.cpu_count()} CPUs, {platform.system()}",
             "python": platform.python_version(),
             "rounds": args.rounds,

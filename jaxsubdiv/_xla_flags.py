@@ -3,19 +3,23 @@
 A command is a new process that compiles its programs and runs them for milliseconds, so
 compile time is most of what a user waits for. XLA's CPU fusion emitters (MLIR, its
 default) cost more compile time than they save there: with them off, a fit's programs
-compiled in 0.62-0.82x the time, the fixed fit running as fast
-(`benchmarks/bench_fit_compile.py --xla-flags`, `results/fit_compile_xla_flags.md`);
-the command's cold runs: `benchmarks/results/startup.md`.
+compiled in 0.62-0.82x the time, the fixed fit running as fast and the `fit_params` and
+gradient programs 1.17x and 1.3x slower (`benchmarks/results/fit_compile_xla_flags.md`);
+the command itself, interleaved with the code before: `benchmarks/results/startup_compare.md`
+and `startup_compare_demo.md` (cold runs 0.76-0.79x the time; warm ones 1.12-1.26x,
+their ranges overlapping).
 
-XLA stops the process (a fatal error, not an exception) at a flag it does not know, and
-older releases lack this one (a later one may drop it with the older emitters), so the
-flag is set only for the jaxlib releases it was tried on (`VERIFIED_JAXLIB`); any other
-release compiles with XLA's defaults. A value the
-user gave in `XLA_FLAGS` is kept: `XLA_FLAGS=--xla_cpu_use_fusion_emitters=true` keeps
-XLA's default emitters.
-
-This is the command's choice for its process, not the library's: `import jaxsubdiv` and
-`fitting` leave XLA's configuration alone.
+Why an environment variable: XLA reads `XLA_FLAGS` when JAX starts its backend, so one
+setting covers every program of the command's process, the library's and JAX's own, and
+`import jaxsubdiv` or `fitting` in a user's process changes nothing. (`jax.jit`'s
+`compiler_options` would need passing through every jit site of the library, and would
+change its programs for library users too.) But XLA stops the process (a fatal error,
+not an exception) at a flag it does not know, and older releases lack this one (a later
+one may drop it with the older emitters), so the flag is set only for the jaxlib
+releases it was run with (`VERIFIED_JAXLIB`; `benchmarks/check_xla_flag_support.py`);
+any other release compiles with XLA's defaults. A value the user gave in `XLA_FLAGS` is
+kept (`XLA_FLAGS=--xla_cpu_use_fusion_emitters=true` keeps XLA's default emitters), as
+are flags read from a file (an `XLA_FLAGS` that does not start with `-` names one).
 """
 
 import contextlib
@@ -27,8 +31,8 @@ import re
 FUSION_EMITTERS_OFF = "--xla_cpu_use_fusion_emitters=false"
 #: jaxlib releases (first, last; inclusive) whose XLA was run with the flag and took it:
 #: each release from 0.4.30 to 0.10.2 installed and run with it and with an invented
-#: flag, 2026-12-07; 0.5.3 to 0.10.2 took it (and stopped at the invented one), 0.5.1
-#: and older stopped at it.
+#: flag on 2026-12-07; 0.5.3 to 0.10.2 took it (and stopped at the invented one), 0.5.1
+#: and older stopped at it (there is no 0.5.2): `benchmarks/results/xla_flag_support.md`.
 VERIFIED_JAXLIB = ((0, 5, 3), (0, 10, 2))
 
 
@@ -51,28 +55,37 @@ def _jaxlib_release() -> tuple[int, int, int] | None:
 
 def command_xla_flags(environ: dict[str, str], jaxlib: tuple[int, ...] | None) -> str | None:
     """The `XLA_FLAGS` value the command runs with, or None to leave it as it is: the
-    user's flags plus the fusion emitters off, when the user did not set that flag and
-    `jaxlib` (a release as numbers) is in `VERIFIED_JAXLIB`."""
+    user's flags plus the fusion emitters off, when `jaxlib` (a release as numbers) is in
+    `VERIFIED_JAXLIB` and the user's value neither sets that flag, nor names a file of
+    flags (XLA reads a value that does not start with `-` as a file name), nor has an
+    unpaired quote (which would take the added flag into the quoted value)."""
     given = environ.get("XLA_FLAGS", "")
-    name = FUSION_EMITTERS_OFF.split("=")[0]
-    if any(flag.split("=")[0] == name for flag in given.split()):
-        return None
     first, last = VERIFIED_JAXLIB
     if jaxlib is None or not first <= jaxlib <= last:
+        return None
+    if given.strip() and not given.lstrip().startswith("-"):
+        return None
+    if given.count('"') % 2 or given.count("'") % 2:
+        return None
+    name = FUSION_EMITTERS_OFF.split("=")[0]
+    if any(flag.split("=")[0] == name for flag in given.split()):
         return None
     return f"{given} {FUSION_EMITTERS_OFF}".strip()
 
 
 @contextlib.contextmanager
 def command_compile_flags():
-    """Run the block with the command's XLA flags (`command_xla_flags`) in `XLA_FLAGS`,
-    and give the variable back its value after it.
+    """Run the block with the command's XLA flags (`command_xla_flags`) in `XLA_FLAGS`.
 
     XLA reads its flags once, when JAX first starts its backend, and JAX's persistent
-    cache keys programs by them at each compilation; so the flags apply to a command run
-    in a new process (the `jaxsubdiv` script), and to nothing in a process whose JAX
-    backend had already started (a test calling `main`, which is left as it was), and
-    no other code of the process sees the variable changed afterwards."""
+    cache keys programs by the variable's value at each compilation. So the flags are set
+    only if the backend has not started (a command run as a new process, the `jaxsubdiv`
+    script); a process whose backend had started (a test calling `main`) is left as it
+    was. After the block the variable gets its value back if the backend still has not
+    started; if the block started it, the flags stay, so that the process's later
+    compilations are cached under the flags XLA compiles them with. (After
+    `jax.clear_backends()` the backend counts as not started, but XLA keeps the flags it
+    read: the variable would then say more than XLA does.)"""
     flags = command_xla_flags(os.environ, _jaxlib_release())
     if flags is None or _backend_started():
         yield
@@ -82,10 +95,11 @@ def command_compile_flags():
     try:
         yield
     finally:
-        if before is None:
-            os.environ.pop("XLA_FLAGS", None)
-        else:
-            os.environ["XLA_FLAGS"] = before
+        if not _backend_started():
+            if before is None:
+                os.environ.pop("XLA_FLAGS", None)
+            else:
+                os.environ["XLA_FLAGS"] = before
 
 
 def _backend_started() -> bool:

@@ -148,8 +148,12 @@ _FLAG_CASES = [
      "--xla_backend_optimization_level=0 " + _EMITTERS_OFF),
     ("--xla_cpu_use_fusion_emitters=true", (0, 10, 2), None),  # the user's choice
     ("  --xla_cpu_use_fusion_emitters  ", (0, 10, 2), None),
+    (None, (0, 5, 3), _EMITTERS_OFF),  # the first release that takes it (tried)
     (None, (0, 5, 1), None),  # XLA of jaxlib 0.5.1 stops at the flag (tried)
-    (None, (99, 0, 0), None),  # a release nobody tried: XLA may not know the flag
+    (None, (0, 10, 3), None),  # a release nobody tried: XLA may not know the flag
+    (None, (99, 0, 0), None),
+    ("/home/me/xla_flags.txt", (0, 10, 2), None),  # XLA reads its flags from that file
+    ('--xla_dump_to="/tmp/my dumps', (0, 10, 2), None),  # an unpaired quote
     (None, None, None),  # jaxlib not installed as a package
 ]
 
@@ -174,8 +178,10 @@ def test_jaxlib_release(text, expected):
 
 
 def test_command_compile_flags_are_given_back(monkeypatch):
-    """Set for the command's block and removed (or restored) after it; left alone in a
-    process whose JAX backend had started (XLA has read its flags)."""
+    """Set for the command's block, and removed (or restored) after it, also after an
+    error, if the backend has not started; kept if the block started it (XLA compiles
+    with them from then on, and JAX's cache keys must say so); left alone in a process
+    whose JAX backend had started (XLA has read its flags)."""
     from jaxsubdiv import _xla_flags
 
     monkeypatch.setattr(_xla_flags, "_jaxlib_release", lambda: (0, 10, 2))
@@ -184,12 +190,29 @@ def test_command_compile_flags_are_given_back(monkeypatch):
             monkeypatch.delenv("XLA_FLAGS", raising=False)
         else:
             monkeypatch.setenv("XLA_FLAGS", before)
-        for started in (False, True):
+        expected = f"{before or ''} {_EMITTERS_OFF}".strip()
+        # (backend started before the block, after it) -> XLA_FLAGS inside, and after
+        for started, inside_expected, after_expected in [
+            ((False, False), expected, before),
+            ((False, True), expected, expected),
+            ((True, True), before, before),
+        ]:
+            answers = iter(started)
             with monkeypatch.context() as m:
-                m.setattr(_xla_flags, "_backend_started", lambda: started)
+                m.setattr(_xla_flags, "_backend_started", lambda: next(answers))
                 with _xla_flags.command_compile_flags():
                     inside = os.environ.get("XLA_FLAGS")
-            assert inside == (before if started else f"{before or ''} {_EMITTERS_OFF}".strip())
+                assert inside == inside_expected
+                assert os.environ.get("XLA_FLAGS") == after_expected
+            if before is None:
+                monkeypatch.delenv("XLA_FLAGS", raising=False)
+            else:
+                monkeypatch.setenv("XLA_FLAGS", before)
+        with monkeypatch.context() as m:
+            m.setattr(_xla_flags, "_backend_started", lambda: False)
+            with pytest.raises(KeyError):
+                with _xla_flags.command_compile_flags():
+                    raise KeyError("the command failed")
             assert os.environ.get("XLA_FLAGS") == before
     jax.numpy.zeros(1).block_until_ready()
     assert _xla_flags._backend_started()
@@ -215,11 +238,14 @@ def test_the_command_runs_with_the_fusion_emitters_off_where_jaxlib_knows_the_fl
         cli._run = spy
         status = cli.main(["refine", "--shape", "square", "--scheme", "chaikin",
                            "--levels", "1", "-o", OUT])
-        print(json.dumps([status, seen[0], os.environ.get("XLA_FLAGS")]))
+        from jax._src.xla_bridge import backends_are_initialized
+        print(json.dumps([status, seen[0], os.environ.get("XLA_FLAGS"),
+                          backends_are_initialized()]))
     """.replace("OUT", repr(str(tmp_path / "refined.csv")))
     given = "--xla_backend_optimization_level=0"
-    (status, inside, after), _ = _python(code, env={"XLA_FLAGS": given})
-    assert status == 0 and after == given
+    (status, inside, after, started), _ = _python(code, env={"XLA_FLAGS": given})
+    # The command started XLA, which took the flags; they stay for the process.
+    assert status == 0 and started and after == inside
     first, last = VERIFIED_JAXLIB
     tried = first <= release(version("jaxlib")) <= last
     assert inside == (f"{given} {_EMITTERS_OFF}" if tried else given)
