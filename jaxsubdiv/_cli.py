@@ -466,6 +466,16 @@ def _padded_lengths(lengths: list[int]) -> list[int]:
     return padded
 
 
+def _on_one_line(points) -> bool:
+    """Whether `points` lie on one line (or at one point), up to rounding: their spread
+    across the line of best fit is at most 1e-9 of that along it."""
+    import numpy as np
+
+    centred = np.asarray(points, np.float64) - np.mean(points, axis=0)
+    spread = np.linalg.svd(centred, compute_uv=False)
+    return len(spread) < 2 or spread[1] <= 1e-9 * spread[0]
+
+
 def _fit(args) -> int:
     import math
 
@@ -553,8 +563,9 @@ def _fit(args) -> int:
         if n is not None and m < 2 * n + extra:
             n = max(smallest, ladder_floor(max(4, (m - extra) // 2)))
             n = n if 2 * n + extra <= m else smallest
-            notes[i] = (f"{n} control points, not {args.n}: the contour's {m} samples "
-                        f"determine at most {max(0, (m - extra) // 2)}")
+            if n != args.n:
+                notes[i] = (f"{n} control points, not {args.n}: the contour's {m} samples "
+                            f"determine at most {max(0, (m - extra) // 2)}")
         need = 2 * (smallest if n is None else n) + extra
         if m < need:
             points = resample_polyline(outline.points, need, boundary == "closed")
@@ -566,6 +577,10 @@ def _fit(args) -> int:
                             f"many as the unknowns of the fewest control points searched "
                             f"({smallest})")
         counts.append(n)
+        if boundary == "closed" and _on_one_line(outline.points):
+            hint = ("its points lie on one line, so a closed curve through them encloses "
+                    "nothing; for a stroke, use --boundary open")
+            notes[i] = f"{notes[i]}; {hint}" if i in notes else hint
     # A PNG's contours as traced (not resampled): in pixels, between pixel centres.
     traced_image = (args.input is not None and args.samples is None
                     and Path(args.input).suffix.lower() == ".png")

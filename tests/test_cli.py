@@ -772,6 +772,7 @@ def test_fit_gives_small_contours_fewer_control_points(capsys, tmp_path):
     assert status == 0, err
     assert "14 control points, not 20: the contour's 30 samples determine at most 15" in out
     assert "resampled along its polyline from 3 to 8 points" in out
+    assert "lie on one line" not in out  # a triangle encloses something
     saved = [js.io.read_result_json(tmp_path / f"fit-{i}.json") for i in (1, 2)]
     assert [len(r.control_points) for r in saved] == [14, 4]
     assert [r.info["samples"] for r in saved] == [30, 8]
@@ -779,6 +780,18 @@ def test_fit_gives_small_contours_fewer_control_points(capsys, tmp_path):
     curve = periodic_bspline(saved[0].control_points, 3)(np.linspace(0, 14, 1401))
     radius = np.hypot(curve[:, 0] - 3, curve[:, 1])
     assert np.abs(radius - 0.2).max() < 0.2 * 1e-3
+
+
+def test_fit_of_a_closed_contour_on_one_line_says_to_fit_a_stroke(capsys, tmp_path):
+    """A CSV of two points is a closed contour by default: the fit is a thin loop around
+    the segment, which encloses nothing; the command says so and how to fit a stroke."""
+    (tmp_path / "segment.csv").write_text("0,0\n1,0.5\n")
+    status, out, err = cli(capsys, "fit", tmp_path / "segment.csv", "--n", 4, "--corners",
+                           "none", "-q", "-o", tmp_path / "fit.json")
+    assert status in (0, 1), err
+    assert ("note       4 control points; resampled along its polyline from 2 to 8 points, "
+            "as many as the unknowns; its points lie on one line, so a closed curve through "
+            "them encloses nothing; for a stroke, use --boundary open") in out
 
 
 def test_fit_pads_contours_of_similar_lengths_together():
