@@ -32,6 +32,7 @@ from pathlib import Path
 
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import median_range, write_results  # noqa: E402
 from bench_startup import (  # noqa: E402
     IMPORT,
     SCENARIOS,
@@ -63,8 +64,7 @@ def _runner(scratch: Path, paths: list[Path]) -> Runner:
 
 
 def _spread(values: list[float]) -> str:
-    return (f"{statistics.median(values):.2f} ({min(values):.2f}-{max(values):.2f})"
-            if values else "")
+    return median_range(values) if values else ""
 
 
 def _markdown(report: dict) -> str:
@@ -189,12 +189,9 @@ def main(argv=None) -> int:
         "rows": {label: list(by_key.values()) for label, by_key in rows.items()},
     }
     args.output.parent.mkdir(parents=True, exist_ok=True)
-    args.output.write_text(json.dumps(report, indent=2) + "\n")
-    table = _markdown(report)
-    args.output.with_suffix(".md").write_text(table)
     print()
-    print(table)
-    print(f"wrote {args.output} and {args.output.with_suffix('.md')}")
+    print(_markdown(report))
+    write_results(args.output, report, _markdown)
     return 0 if all(r["ok"] for by_key in rows.values() for r in by_key.values()) else 1
 
 

@@ -17,8 +17,6 @@ Writes the JSON and a Markdown table beside it.
 """
 
 import argparse
-import datetime
-import json
 import os
 import platform
 import shutil
@@ -26,6 +24,10 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import header, load, write_results  # noqa: E402
 
 
 FLAG = "--xla_cpu_use_fusion_emitters"
@@ -57,11 +59,13 @@ def check(version: str, scratch: Path) -> dict:
 
 def markdown(report: dict) -> str:
     lines = [f"# Which jaxlib releases take `{FLAG}`", "",
-             f"{report['date']}; Python {report['python']}, {report['machine']}. Produced by "
+             f"{report['date']}; Python {report['python']}, {report['machine']}; load "
+             f"{report['load_start'][0]:.1f} at start, {report['load_end'][0]:.1f} at end. "
+             "Produced by "
              "`python benchmarks/check_xla_flag_support.py "
              + " ".join(r["version"] for r in report["rows"]) + "`. Each release installed "
              "with pip into a scratch folder and run in fresh processes with `XLA_FLAGS` "
-             "set as the column says; `ok` = exit 0 and the sum printed; otherwise the exit "
+             "set as the column says; `ok` = exit status 0 (the sum computed); otherwise the exit "
              "status and the last line of stderr.", "",
              "| jaxlib | " + " | ".join(SETTINGS) + " |",
              "|---|" + "---|" * len(SETTINGS)]
@@ -78,6 +82,7 @@ def markdown(report: dict) -> str:
 
 
 def main(argv=None) -> int:
+    started = header()
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("versions", nargs="+", help="jaxlib releases, e.g. 0.5.3 0.10.2")
     parser.add_argument("--output", type=Path, required=True, help="JSON path (.md beside it)")
@@ -88,13 +93,10 @@ def main(argv=None) -> int:
             rows.append(check(version, Path(scratch)))
             print(version, {k: v["exit"] for k, v in rows[-1].items() if isinstance(v, dict)},
                   flush=True)
-    report = {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="minutes"),
-              "python": platform.python_version(), "machine": platform.machine(),
-              "flag": FLAG, "rows": rows}
+    report = started | {"python": platform.python_version(), "load_end": load(),
+                        "flag": FLAG, "rows": rows}
     args.output.parent.mkdir(parents=True, exist_ok=True)
-    args.output.write_text(json.dumps(report, indent=2) + "\n")
-    args.output.with_suffix(".md").write_text(markdown(report))
-    print(markdown(report))
+    write_results(args.output, report, markdown)
     return 0
 
 
