@@ -44,13 +44,13 @@ def release(text: str) -> tuple[int, int, int] | None:
 
 
 def _jaxlib_release() -> tuple[int, int, int] | None:
-    """The installed jaxlib's release, or None if it is not installed as a package."""
-    from importlib.metadata import PackageNotFoundError, version
-
+    """The installed jaxlib's release, or None without one (from `jaxlib.version`,
+    which JAX imports anyway, rather than the slower search of package metadata)."""
     try:
-        return release(version("jaxlib"))
-    except PackageNotFoundError:
+        from jaxlib.version import __version__
+    except ImportError:
         return None
+    return release(__version__)
 
 
 def command_xla_flags(environ: dict[str, str], jaxlib: tuple[int, ...] | None) -> str | None:
