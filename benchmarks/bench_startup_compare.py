@@ -5,7 +5,8 @@
 
 A variant is `LABEL=PATH[,PATH...]`: the paths go in front of `PYTHONPATH` in its
 children (a source tree, and perhaps a folder of other package versions, such as
-`pip install --target DIR ml_dtypes==0.6.0`). Each round runs every scenario of
+`pip install --target DIR ml_dtypes==0.6.0`); `--env LABEL:NAME=VALUE` sets an
+environment variable for one variant's children (the same tree with other XLA flags). Each round runs every scenario of
 `bench_startup.py` (its `SCENARIOS`, cold and warm, by its `measure`: one timed run, and
 its counting probe) for every variant back to back, the variants' order rotated by one
 each round (a round count that is a multiple of the number of variants puts each variant
@@ -88,7 +89,8 @@ def _markdown(report: dict) -> str:
         "",
     ]
     for v in variants:
-        lines.append(f"- `{v['label']}`: PYTHONPATH {', '.join(v['paths'])}; jaxsubdiv "
+        env = "".join(f"; {k}=`{val}`" for k, val in v.get("env", {}).items())
+        lines.append(f"- `{v['label']}`: PYTHONPATH {', '.join(v['paths'])}{env}; jaxsubdiv "
                      f"{v['source']}, jaxlib {v['jaxlib']}, ml_dtypes {v['ml_dtypes']}, numpy "
                      f"{v['numpy']}; XLA_FLAGS the command left: "
                      f"`{v.get('xla_flags_in_command') or '(unset)'}`")
@@ -113,6 +115,9 @@ def _markdown(report: dict) -> str:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("variants", nargs="+", type=_variant, help="LABEL=PATH[,PATH...]")
+    parser.add_argument("--env", action="append", default=[], metavar="LABEL:NAME=VALUE",
+                        help="an environment variable for one variant's children "
+                        "(e.g. 'on:XLA_FLAGS=--xla_cpu_use_fusion_emitters=true'); repeatable")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--scenarios", default="demo,fit-glyph")
     parser.add_argument("--output", type=Path, required=True, help="JSON path (.md beside it)")
@@ -120,6 +125,13 @@ def main(argv=None) -> int:
     labels = [label for label, _ in args.variants]
     if len(set(labels)) != len(labels):
         parser.error(f"variant labels must differ; got {labels}")
+    extra_env = {label: {} for label in labels}
+    for item in args.env:
+        label, _, assignment = item.partition(":")
+        name, sep, value = assignment.partition("=")
+        if label not in extra_env or not name or not sep:
+            parser.error(f"--env {item!r}: expected LABEL:NAME=VALUE with LABEL one of {labels}")
+        extra_env[label][name] = value
     chosen = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     unknown = [s for s in chosen if s not in SCENARIOS]
     if unknown:
@@ -135,6 +147,7 @@ def main(argv=None) -> int:
             folder.mkdir()
             write_two_contours(folder / "two.json")
             runner = runners[label] = _runner(folder, paths)
+            runner.env.update(extra_env[label])
             warmup = runner.run(IMPORT + "; import matplotlib.font_manager", [],
                                 runner.fresh_cache())
             if warmup["exit_code"] != 0:
@@ -149,6 +162,7 @@ def main(argv=None) -> int:
                       file=sys.stderr)
                 return 1
             variants.append({"label": label, "paths": [str(p) for p in paths],
+                             "env": extra_env[label],
                              "jaxsubdiv_file": file, "fitting_file": fitting_file,
                              "source": _git_state(tree), "jaxlib": jaxlib,
                              "ml_dtypes": ml_dtypes, "numpy": numpy})
