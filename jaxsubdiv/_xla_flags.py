@@ -6,8 +6,9 @@ default) cost more compile time than they save there: with them off, a fit's pro
 compiled in 0.62-0.82x the time, the fixed fit running as fast and the `fit_params` and
 gradient programs 1.17x and 1.3x slower (`benchmarks/results/fit_compile_xla_flags.md`);
 the command itself, the same code with them on and off, interleaved:
-`benchmarks/results/startup_emitters_same_tree.md` (cold runs in 0.74-0.87x the time,
-runs from a warm cache 1.13-1.18x slower, not yet explained: `docs/cli.md`).
+`benchmarks/results/startup_emitters_same_tree.md` (cold runs in 0.74-0.87x the time on
+two machines; runs from a warm cache 0.97-0.98x on one, 1.13-1.18x slower, not
+explained, on the other: `docs/cli.md`).
 
 Why an environment variable: XLA reads `XLA_FLAGS` when JAX starts its backend, so one
 setting covers every program of the command's process, the library's and JAX's own, and
