@@ -84,7 +84,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     parser.add_argument("--scheme", default="cubic-bspline", choices=_FIT_SCHEMES,
                         help="scheme fitted with --fit (default: cubic-bspline)")
     parser.add_argument("--samples", type=int,
-                        help="resample the outline to this many points by arc length")
+                        help="resample the outline to this many points by arc length "
+                        "(default: as given; with --fit, a --shape or an SVG at 400)")
     parser.add_argument("--outline", type=int,
                         help="which outline of a file with several, counted from 1 as "
                         "`jaxsubdiv fit` reports contours (default: the largest)")
@@ -157,7 +158,15 @@ def run(args) -> int:
         save_prefix=args.save_prefix, figure=figure,
     )
     if args.shape is not None:
-        outlines = [js.io.Outline(points=np.asarray(js.shapes.get(args.shape)), closed=True)]
+        from ._io.common import check_samples, resample_polyline
+
+        points = np.asarray(js.shapes.get(args.shape))
+        # As `jaxsubdiv fit --shape`: --samples resamples the shape, and a fit samples it
+        # at 400 points by default (a star's 10 corners are fewer than a fit's unknowns).
+        samples = check_samples(args.samples) or (400 if args.fit else None)
+        if samples is not None:
+            points = resample_polyline(points, samples, True)
+        outlines = [js.io.Outline(points=points, closed=True)]
     elif args.input is not None:
         samples = args.samples
         if samples is None and args.fit and str(args.input).lower().endswith(".svg"):

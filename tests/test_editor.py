@@ -411,6 +411,14 @@ def test_command_line(tmp_path, capsys):
     args = parser.parse_args(["edit", "--shape", "U", "--open", "--png", str(png)])
     assert run(args) == 0
     assert "clamped" in capsys.readouterr().out
+    # --samples resamples a shape (40 points, not its 10 corners); --fit samples it at
+    # 400 points by default, as `jaxsubdiv fit --shape` does (its 10 corners were fewer
+    # than a fit's unknowns: an error).
+    assert run(parser.parse_args(["edit", "--shape", "star", "--samples", "40",
+                                  "--png", str(png)])) == 0
+    assert "40 control points" in capsys.readouterr().out
+    assert run(parser.parse_args(["edit", "--shape", "star", "--fit", "--png", str(png)])) == 0
+    assert "16 control points" in capsys.readouterr().out
     # No display (Agg) and no --png: a clear error naming the fix.
     with pytest.raises(ValueError, match="--png"):
         run(parser.parse_args(["edit"]))
