@@ -9,6 +9,7 @@ from ._checks import (
     ORDER_SAMPLES_LIMIT as ORDER_SAMPLES_LIMIT,
     fit_memory as fit_memory,
 )
+from ._core import PHASES as PHASES
 from ._corners import find_corners as find_corners
 from ._fit import fit as fit
 from ._init import order_samples as order_samples

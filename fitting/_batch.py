@@ -33,6 +33,7 @@ from ._checks import (
     bucket,
     check_memory,
     check_on_failure,
+    check_phases,
     check_tol,
     default_levels,
     default_tol,
@@ -306,6 +307,7 @@ def fit_batch(
     corners: None | Literal["auto"] | Sequence[None | str | Sequence[int]] = None,
     fit_params: bool | str | tuple[str, ...] = False,
     profile: int | None = None,
+    phases: int | None = None,
     solver=None,
     max_steps: int = 500,
     tol: float | None = None,
@@ -367,6 +369,8 @@ def fit_batch(
       on 2 cores). Results do not depend on it.
     - `progress`: one line on stderr for the whole batch, counting outlines done (with
       several processes, each shows its own share's).
+    - `phases`: as for `fit`; with corners in any item, no item's phases are searched
+      (every item is then fitted with the creased model).
     - `memory_budget`: as for `fit`, checked per outline (one outline is fitted at a
       time in each thread or device, so the batch needs up to that many times it).
     - others: as for [`fitting.fit`][].
@@ -474,7 +478,11 @@ def fit_batch(
     tol = default_tol(stacked.dtype) if tol is None else check_tol(tol, "fit_batch")
     objective = make_objective(scheme, n=n, levels=levels, boundary=boundary, names=names,
                                hermite=hermite, size=size, profile=values,
-                               pin_ends=pin_ends, corners=creased)
+                               pin_ends=pin_ends, corners=creased,
+                               phases=check_phases(phases, boundary=boundary,
+                                                   fit_params=bool(names), init=False,
+                                                   solver=solver not in (None, "levenberg-marquardt"),
+                                                   who="fit_batch"))
     own = make_solver(solver, tol, tol, progress)
     if progress:
         _progress.begin()
@@ -492,6 +500,7 @@ def fit_batch(
         # process fits its share on its own devices (`_run_across_processes`).
         if several_processes and concrete:
             extra = (n, levels, boundary, pin_ends, names, repr(values), ordered,
+                     objective.phases,
                      "levenberg-marquardt" if solver is None else
                      solver if isinstance(solver, str) else "instance")
             result = _run_across_processes(stacked, stacked_weights, counts, flags, scheme,

@@ -346,3 +346,31 @@ def check_pin_ends(pin_ends, boundary: str, caller: str = "fit") -> bool:
             "boundary='clamped' (a closed curve has no first or last point)."
         )
     return bool(pin_ends)
+
+
+#: The most phases a fit tries (`check_phases`): each is a fit of its own.
+MAX_PHASES = 64
+
+
+def check_phases(phases, *, boundary: str, fit_params: bool, init: bool, solver: bool,
+                 who: str = "fit") -> int | None:
+    """`fit(phases=...)`: None (the default, `fitting.PHASES`) or an int from 1 to
+    `MAX_PHASES` (static: each count is a program of its own). More than one is for
+    what `_core.phase_solve` fits: a closed curve from the linear start, with the
+    default solver and no fitted parameters (`fit_params`, `init` and `solver`: whether
+    those are given); otherwise a `ValueError` that says so. (With corners the phases are
+    not searched: the corners place the spans; `make_objective`.)"""
+    if phases is None:
+        return None
+    phases = static_int(phases, "phases", minimum=1, maximum=MAX_PHASES,
+                        why=" (each phase is a fit of its own)")
+    if phases > 1:
+        conflict = ("an open curve (its ends fix the phase)" if boundary != "closed" else
+                    "fit_params (its profile starts from one phase)" if fit_params else
+                    "an `init` (the start is given)" if init else
+                    "another `solver` (the phases run the default one)" if solver else None)
+        if conflict is not None:
+            raise ValueError(f"`{who}(phases={phases})` searches the start of a closed "
+                             f"curve's fit, which does not apply to {conflict}; leave "
+                             "`phases` out.")
+    return phases

@@ -22,6 +22,7 @@ from ._checks import (
     bucket,
     check_memory,
     check_on_failure,
+    check_phases,
     check_tol,
     default_levels,
     default_tol,
@@ -48,6 +49,7 @@ def fit(
     corners: None | Literal["auto"] | Sequence[int] = None,
     fit_params: bool | str | tuple[str, ...] = False,
     profile: int | None = None,
+    phases: int | None = None,
     init: Float[ArrayLike, "n d"] | None = None,
     solver=None,
     max_steps: int = 500,
@@ -165,6 +167,15 @@ def fit(
       fit from the start alone, without that guarantee. At most 64 grid fits.
       `num_steps` counts the returned fit's steps only (the joint fit's, or the
       start's).
+    - `phases`: a closed curve's fit from this many starts, the linear fit with the
+      control polygon's phase along the samples shifted by 0, 1/K, ..., (K - 1)/K of a
+      span, each fitted to `tol`; the fit of least loss is returned (static; default
+      `fitting.PHASES` = 1, the linear start at the samples' chord-length positions
+      alone). Which local minimum a fit reaches depends on that phase:
+      `benchmarks/results/fit_phases.md` measures `phases=4` against 1 (`docs/fitting.md`,
+      "Phase of the start"). About K times the time; one compiled solver loop.
+      More than 1 with an open `boundary`, `fit_params`, `init` or another `solver` is a
+      `ValueError`; with `corners` found it is not searched (the corners place the spans).
     - `init`: starting control points `(n, d)` instead of the linear fit. A fit from
       `init` that ends worse than the linear fit before any step (a higher loss, or a
       two-sided RMS above 1.1 times its) reports `poor_local_minimum`: a local minimum
@@ -256,7 +267,11 @@ def fit(
     objective = make_objective(scheme, n=n, levels=levels, boundary=boundary, names=names,
                                hermite=hermite, size=size,
                                profile=profile, pin_ends=pin_ends,
-                               corners=flags is not None)
+                               corners=flags is not None,
+                               phases=check_phases(phases, boundary=boundary,
+                                                   fit_params=bool(names),
+                                                   init=init is not None,
+                                                   solver=solver is not None))
     root_smoothing, tol, max_steps = traced_settings(smoothing, tol, max_steps, target.dtype,
                                                      solver is None)
     padded, weights = pad(target, weights, size)

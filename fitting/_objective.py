@@ -247,6 +247,9 @@ class Objective(eqx.Module):
     pivots: tuple[int, ...] = eqx.field(static=True, default=())
     # Closed curves with corners: creased control points (`FitData.creases`).
     corners: bool = eqx.field(static=True, default=False)
+    # Closed curves without corners, fitted parameters, `init` or another solver: the
+    # phases of the start tried (`_core.phase_solve`); 1 for the linear start alone.
+    phases: int = eqx.field(static=True, default=1)
 
     @property
     def closed(self) -> bool:

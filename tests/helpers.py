@@ -217,6 +217,24 @@ def prism():
 # jaxsubdiv).
 
 
+def wobbly_polygon(seed, n=16):
+    """A smooth closed control polygon (a wobbly ellipse), as `bench_fit_quality.py`'s
+    recovery curves."""
+    rng = np.random.default_rng(seed)
+    theta = np.linspace(0, 2 * np.pi, n, endpoint=False) + rng.uniform(-0.1, 0.1, n)
+    radius = 1 + 0.25 * np.sin(3 * theta + seed) + rng.uniform(-0.05, 0.05, n)
+    return np.stack([1.5 * radius * np.cos(theta), radius * np.sin(theta)], -1)
+
+
+def uneven_samples(curve, seed, m=400, phase=0.37 / 16):
+    """`m` points of a dense closed curve spaced unevenly (3:1), the first `phase` of the
+    way round (a fraction of a span: not at a control point)."""
+    k = np.arange(m)
+    u = (k + 0.3 * m / (6 * np.pi) * np.sin(6 * np.pi * k / m + seed)) / m
+    index = np.unique(np.round(((u + phase) % 1.0) * len(curve)).astype(int) % len(curve))
+    return curve[index]
+
+
 def periodic_bspline(control, degree):
     """The closed uniform B-spline of a control polygon as a `scipy.interpolate.BSpline`
     on the periodic knot vector -degree, ..., n + degree (integer knots), so that

@@ -1058,13 +1058,17 @@ def assert_matches_finite_difference(derivative, f, x, direction, steps=(1e-3, 1
     raise AssertionError(f"derivative {derivative} matches no finite difference: {fds}")
 
 
-@pytest.mark.parametrize("scheme", [js.FourPoint(0.08), js.CubicBSpline()],
-                         ids=["four_point", "bspline"])
-def test_gradient_with_respect_to_target(scheme):
+@pytest.mark.parametrize("scheme, phases", [(js.FourPoint(0.08), None), (js.CubicBSpline(), None),
+                                            (js.FourPoint(0.08), 4)],
+                         ids=["four_point", "bspline", "four_point_phases"])
+def test_gradient_with_respect_to_target(scheme, phases):
+    """With `phases`, the fit chosen among the starts carries the implicit derivatives
+    of its own optimum (`_core.phase_solve`, `held_implicit`)."""
     samples, direction = _small_problem()
 
     def loss(target):
-        result = fitting.fit(target, scheme, 8, levels=8, tol=1e-12, max_steps=400)
+        result = fitting.fit(target, scheme, 8, levels=8, tol=1e-12, max_steps=400,
+                             phases=phases)
         return jnp.sum(result.control_points * direction)
 
     grad = np.asarray(jax.grad(loss)(samples))
