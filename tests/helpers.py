@@ -227,8 +227,10 @@ def wobbly_polygon(seed, n=16):
 
 
 def uneven_samples(curve, seed, m=400, phase=0.37 / 16):
-    """`m` points of a dense closed curve spaced unevenly (3:1), the first `phase` of the
-    way round (a fraction of a span: not at a control point)."""
+    """At most `m` points of a dense closed curve (repeats dropped), spaced unevenly
+    (3:1), their parameters shifted by `phase` of the way round (so that no sample
+    need sit at a control point's limit point), in order along it. As
+    `bench_fit_quality.recovery_samples`."""
     k = np.arange(m)
     u = (k + 0.3 * m / (6 * np.pi) * np.sin(6 * np.pi * k / m + seed)) / m
     index = np.unique(np.round(((u + phase) % 1.0) * len(curve)).astype(int) % len(curve))
