@@ -217,6 +217,18 @@ def prism():
 # jaxsubdiv).
 
 
+def four_point_numpy(P, w, levels):
+    """Dyn-Levin-Gregory on a closed polygon: keep P_i, insert (1/2 + w)(P_i + P_i+1) -
+    w(P_i-1 + P_i+2); interpolating, so the refined points lie on the limit curve."""
+    for _ in range(levels):
+        prev, nxt, nxt2 = np.roll(P, 1, 0), np.roll(P, -1, 0), np.roll(P, -2, 0)
+        Q = np.empty((2 * len(P), 2))
+        Q[0::2] = P
+        Q[1::2] = (0.5 + w) * (P + nxt) - w * (prev + nxt2)
+        P = Q
+    return P
+
+
 def wobbly_polygon(seed, n=16):
     """A smooth closed control polygon (a wobbly ellipse), as `bench_fit_quality.py`'s
     recovery curves."""

@@ -12,7 +12,7 @@ import jax
 import matplotlib.image
 import numpy as np
 import pytest
-from helpers import chaikin_python, polyline_distances, superellipse
+from helpers import chaikin_python, four_point_numpy, polyline_distances, superellipse
 from matplotlib.backend_bases import KeyEvent, MouseEvent
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -76,17 +76,6 @@ def key(ed, name, xy_pixel=None):
 
 
 # Independent references (numpy, from the rules as published) ---------------------------
-
-
-def four_point_numpy(P, w, levels):
-    """Dyn-Levin-Gregory: keep P_i, insert (1/2 + w)(P_i + P_i+1) - w(P_i-1 + P_i+2)."""
-    for _ in range(levels):
-        prev, nxt, nxt2 = np.roll(P, 1, 0), np.roll(P, -1, 0), np.roll(P, -2, 0)
-        Q = np.empty((2 * len(P), 2))
-        Q[0::2] = P
-        Q[1::2] = (0.5 + w) * (P + nxt) - w * (prev + nxt2)
-        P = Q
-    return P
 
 
 def split_tweak_numpy(V, t, levels):

@@ -9,6 +9,7 @@ four-point scheme).
 import numpy as np
 import pytest
 from helpers import (
+    four_point_numpy,
     glyph_outline,
     periodic_bspline,
     polyline_distances,
@@ -97,18 +98,6 @@ def test_more_control_points_never_fit_worse(name, k):
 
 # --------------------------------------------------------------------------------------
 # The phase of the start (`phases`)
-
-
-def four_point_numpy(P, w, levels):
-    """Dyn-Levin-Gregory: keep P_i, insert (1/2 + w)(P_i + P_i+1) - w(P_i-1 + P_i+2);
-    interpolating, so the refined points lie on the limit curve."""
-    for _ in range(levels):
-        prev, nxt, nxt2 = np.roll(P, 1, 0), np.roll(P, -1, 0), np.roll(P, -2, 0)
-        Q = np.empty((2 * len(P), 2))
-        Q[0::2] = P
-        Q[1::2] = (0.5 + w) * (P + nxt) - w * (prev + nxt2)
-        P = Q
-    return P
 
 
 #: (label, scheme, its curve from a polygon (scipy or numpy), polygon seed): noise-free
