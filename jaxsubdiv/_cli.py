@@ -484,7 +484,7 @@ def _fit(args) -> int:
 
     import fitting
     from fitting._tolerance import ladder_floor
-    from jaxsubdiv._io.common import resample_polyline
+    from jaxsubdiv._io.common import densify_polyline
     from jaxsubdiv.validation import check_creasable, min_points
 
     js = _js()
@@ -577,12 +577,12 @@ def _fit(args) -> int:
                             f"determine at most {max(0, (m - extra) // 2)}")
         need = 2 * (smallest if n is None else n) + extra
         if m < need:
-            points = resample_polyline(outline.points, need, boundary == "closed")
+            points = densify_polyline(outline.points, need, boundary == "closed")
             outlines[i] = js.io.Outline(points=points, closed=outline.closed, group=outline.group)
-            notes[i] = (notes.get(i, f"{n} control points") + f"; resampled along its polyline "
-                        f"from {m} to {need} points, as many as the unknowns")
+            notes[i] = (notes.get(i, f"{n} control points") + f"; {need - m} points added "
+                        f"along its polyline (its {m} kept), as many as the unknowns")
             if n is None:
-                notes[i] = (f"resampled along its polyline from {m} to {need} points, as "
+                notes[i] = (f"{need - m} points added along its polyline (its {m} kept), as "
                             f"many as the unknowns of the fewest control points searched "
                             f"({smallest})")
         counts.append(n)

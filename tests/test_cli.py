@@ -793,8 +793,8 @@ def test_fit_gives_small_contours_fewer_control_points(capsys, tmp_path):
     an icon). With --n 20 (40 unknowns) the circle gets 14 control points, the largest
     count of the tolerance search's ladder (4, 5, 6, 7, 8, 10, 12, 14, 16, 20, ...) its
     30 samples determine, and the triangle, too small for the fewest (4 points, 8
-    unknowns), is resampled to 8 points on its polyline; the command used to fail for
-    the whole file. (Contours with enough samples keep --n: every other fit test.)"""
+    unknowns), gets 5 more points on its polyline, its own kept; the command used to
+    fail for the whole file. (Contours with enough samples keep --n: every other fit test.)"""
     s = 2 * np.pi * np.arange(30) / 30
     small = np.stack([3 + 0.2 * np.cos(s), 0.2 * np.sin(s)], 1)
     triangle = np.array([[5.0, 0.0], [5.3, 0.0], [5.0, 0.3]])
@@ -804,7 +804,7 @@ def test_fit_gives_small_contours_fewer_control_points(capsys, tmp_path):
                            "none", "-q", "-o", tmp_path / "fit.json")
     assert status == 0, err
     assert "14 control points, not 20: the contour's 30 samples determine at most 15" in out
-    assert "resampled along its polyline from 3 to 8 points" in out
+    assert "5 points added along its polyline (its 3 kept)" in out
     assert "lie on one line" not in out  # a triangle encloses something
     saved = [js.io.read_result_json(tmp_path / f"fit-{i}.json") for i in (1, 2)]
     assert [len(r.control_points) for r in saved] == [14, 4]
@@ -822,9 +822,30 @@ def test_fit_of_a_closed_contour_on_one_line_says_to_fit_a_stroke(capsys, tmp_pa
     status, out, err = cli(capsys, "fit", tmp_path / "segment.csv", "--n", 4, "--corners",
                            "none", "-q", "-o", tmp_path / "fit.json")
     assert status in (0, 1), err
-    assert ("note       4 control points; resampled along its polyline from 2 to 8 points, "
+    assert ("note       4 control points; 6 points added along its polyline (its 2 kept), "
             "as many as the unknowns; its points lie on one line, so a closed curve through "
             "them encloses nothing; for a stroke, use --boundary open") in out
+
+
+def test_a_contour_of_too_few_points_keeps_them_and_its_error_is_honest(capsys, tmp_path):
+    """A triangle of 3 points (fewer than 4 control points' 8 unknowns) gets points added
+    along its edges with its vertices kept, so the fit of its corners is charged against
+    the triangle the user gave: the saved creased polygon's curve (scipy's B-spline, the
+    creases as tripled control points) passes within 1e-6 of the size of all 3 vertices
+    and the reported max error is below 1e-5 of the size. (Resampled by arc length alone,
+    the 8 points cut the corners, and the exact fit reported 9.9e-2 of the size.)"""
+    triangle = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])
+    (tmp_path / "three.csv").write_text("0,0\n1,0\n1,1\n")
+    status, out, err = cli(capsys, "fit", tmp_path / "three.csv", "-q", "-o", tmp_path / "t.json")
+    assert status == 0, err
+    assert "5 points added along its polyline (its 3 kept)" in out
+    relative = float(re.search(r"max error +\S+ \((\S+) of the size", out).group(1))
+    assert relative < 1e-5, out
+    result = js.io.read_result_json(tmp_path / "t.json")
+    curve = np.asarray(js.limit_curve(result.control_points, js.CubicBSpline(), 8,
+                                      creases=list(result.creases)))
+    gaps = np.linalg.norm(curve[None, :, :] - triangle[:, None, :], axis=2).min(axis=1)
+    assert gaps.max() < 1e-6 * np.sqrt(2), gaps
 
 
 def test_fit_pads_contours_of_similar_lengths_together():

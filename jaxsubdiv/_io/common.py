@@ -251,6 +251,34 @@ def resample_polyline(points: np.ndarray, count: int, closed: bool) -> np.ndarra
     return np.stack([np.interp(targets, s, points[:, k]) for k in range(2)], axis=-1)
 
 
+def densify_polyline(points: np.ndarray, count: int, closed: bool) -> np.ndarray:
+    """`count` points along the polyline through `points` (`count >= len(points)`) that
+    keep every one of them: each edge gets new points spaced evenly along it, in
+    proportion to its length (largest remainders). For a contour of too few points to
+    fit: resampling by arc length alone cuts its corners, and a fit of the corners the
+    user gave was then charged for them (a triangle fitted exactly reported a max error
+    of 10% of its size)."""
+    points = np.asarray(points, float)
+    m = len(points)
+    ends = np.concatenate([points[1:], points[:1]]) if closed else points[1:]
+    edges = len(ends)
+    lengths = np.linalg.norm(ends - points[:edges], axis=1)
+    extra = count - m
+    if extra <= 0 or edges == 0:
+        return points
+    share = (lengths / lengths.sum() * extra if lengths.sum() > 0
+             else np.full(edges, extra / edges))
+    added = np.floor(share).astype(int)
+    added[np.argsort(-(share - added), kind="stable")[: extra - added.sum()]] += 1
+    out = []
+    for start, end, k in zip(points[:edges], ends, added):
+        fractions = np.arange(k + 1) / (k + 1)  # the edge's start and its k new points
+        out.append(start + fractions[:, None] * (end - start))
+    if not closed:
+        out.append(points[-1:])
+    return np.concatenate(out)
+
+
 def check_samples(samples) -> int | None:
     if samples is None:
         return None
