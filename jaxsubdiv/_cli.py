@@ -483,6 +483,7 @@ def _fit(args) -> int:
     import numpy as np
 
     import fitting
+    from fitting._checks import MAX_PHASES
     from fitting._tolerance import ladder_floor
     from jaxsubdiv._io.common import densify_polyline
     from jaxsubdiv.validation import check_creasable, min_points
@@ -510,8 +511,8 @@ def _fit(args) -> int:
     if args.pin_ends and args.boundary == "closed":
         raise ValueError("--pin-ends: a closed curve has no ends; use --boundary open or "
                          "clamped (or leave --boundary out: open contours are fitted open)")
-    if args.phases is not None and not 1 <= args.phases <= 64:
-        raise ValueError(f"--phases must be from 1 to 64, got {args.phases}")
+    if args.phases is not None and not 1 <= args.phases <= MAX_PHASES:
+        raise ValueError(f"--phases must be from 1 to {MAX_PHASES}, got {args.phases}")
     if args.phases is not None and args.phases > 1:
         if args.fit_params:
             raise ValueError("--phases applies to fits without --fit-params (whose profile "
