@@ -1131,12 +1131,29 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """Run the command with `argv` (default: `sys.argv[1:]`); return the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = _parser().parse_args(argv)
-    args.command_line = shlex.join(["jaxsubdiv", *argv])
-    from ._xla_flags import command_compile_flags
+    try:
+        args = _parser().parse_args(argv)
+        args.command_line = shlex.join(["jaxsubdiv", *argv])
+        from ._xla_flags import command_compile_flags
 
-    with command_compile_flags():
-        return _run(args)
+        with command_compile_flags():
+            return _run(args)
+    except BrokenPipeError:
+        return _reader_gone()
+
+
+def _reader_gone() -> int:
+    """The exit status when the reader of the command's output went away
+    (`jaxsubdiv edit ... | head`): no error line, as Unix tools stop quietly on a closed
+    pipe; 141 (128 + SIGPIPE), the status a shell gives them. Standard output is pointed
+    at the null device first, so that the interpreter's final flush of what is still
+    buffered does not fail again (the recipe of Python's `signal` documentation)."""
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, sys.stdout.fileno())
+    except (OSError, ValueError):  # no file descriptor (an in-memory stdout)
+        pass
+    return 141
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -1159,6 +1176,8 @@ def _run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print(f"jaxsubdiv {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        raise  # not an error of the command: `main` stops quietly
     except Exception as e:
         if os.environ.get("JAXSUBDIV_TRACEBACK", "") not in ("", "0"):
             raise

@@ -6,6 +6,7 @@ run the installed `jaxsubdiv` script.
 """
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -498,6 +499,21 @@ def test_every_subcommand_has_help(capsys):
     for command in ("refine", "fit", "analyze", "gallery", "demo"):
         status, out, _ = cli(capsys, command, "--help")
         assert status == 0 and out.startswith(f"usage: jaxsubdiv {command}")
+
+
+def test_a_closed_output_pipe_stops_quietly():
+    # `jaxsubdiv ... | head`: the reader goes away. Here it has gone before the command
+    # starts (the pipe's reading end closed), so its first write fails, as a Unix tool
+    # killed by SIGPIPE: status 141 and nothing on stderr (it was "error: [Errno 32]
+    # Broken pipe", status 2).
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        done = subprocess.run([str(SCRIPT), "analyze", "--scheme", "chaikin"], stdout=write_end,
+                              stderr=subprocess.PIPE, text=True, timeout=600)
+    finally:
+        os.close(write_end)
+    assert (done.returncode, done.stderr) == (141, "")
 
 
 # ------------------------------------------------------------------------- errors
