@@ -1,12 +1,13 @@
 """The phase of a closed fit's start: `fitting.fit(phases=4)` against the default (1).
 
-    python benchmarks/bench_fit_phases.py            # about 15 min on 2 cores
+    python benchmarks/bench_fit_phases.py            # about 5 min on 2 cores
     python benchmarks/bench_fit_phases.py --smoke    # two outlines, two known curves
 
 A closed curve's linear start puts its control polygon's first span at the first sample
 (in the samples' canonical order), and which local minimum the fit then reaches depends
 on that phase. `phases=K` fits K starts, the polygon's phase shifted by j/K of a span,
-each to `tol`, and returns the one of least loss (`fitting._core.phase_solve`). Both settings run in
+each to `tol`, and returns the one of least two-sided RMS (`fitting._core.phase_solve`;
+until 2026-12-07 the one of least loss: `results/fit_phases_by_loss.md`). Both settings run in
 this one process, alternating, on:
 
 - **curves made from known polygons** (noise-free, exactly representable): the

@@ -369,8 +369,10 @@ def fit_batch(
       on 2 cores). Results do not depend on it.
     - `progress`: one line on stderr for the whole batch, counting outlines done (with
       several processes, each shows its own share's).
-    - `phases`: as for `fit`; with corners in any item, no item's phases are searched
-      (every item is then fitted with the creased model).
+    - `phases`: as for `fit`, each item's phases fitted and measured in one program
+      (`_core.phase_solve`, whose first call compiles about 1.5x as long as one phase's:
+      `benchmarks/results/fit_phases_in_one_program.md`); with corners in any item, no
+      item's phases are searched (every item is then fitted with the creased model).
     - `memory_budget`: as for `fit`, checked per outline (one outline is fitted at a
       time in each thread or device, so the batch needs up to that many times it).
     - others: as for [`fitting.fit`][].

@@ -27,7 +27,7 @@ from jaxsubdiv.validation import is_traced
 
 from . import _exported, _progress
 from ._curve import curve_samples
-from ._init import canonical_order, chord_fractions, corner_creases, initial_control
+from ._init import canonical_order, corner_creases, initial_control
 from ._objective import (
     FitData,
     Objective,
@@ -274,7 +274,7 @@ def set_up(data: FitData, init, objective: Objective) -> Problem:
                      basis=None if objective.names else basis, count=data.count,
                      corners=data.corners, creases=creases)
     linear = initial_control(scaled.target, weights, basis[0], objective.boundary,
-                             data.root_smoothing**2, position, creases)
+                             data.root_smoothing**2, position, creases, offset=data.phase)
     params = to_unconstrained(scheme, objective.names)
     start = lambda P: {"control": jax.lax.stop_gradient(objective.unknowns(P)),
                        "params": params}
@@ -514,13 +514,12 @@ def default_solver(objective: Objective, tol, valid_count, max_steps, progress=F
     )
 
 
-#: Phases of a closed curve's start tried by default (`phase_solve`): one, the linear
-#: fit at the samples' chord-length positions. `phases=4` against it
+#: Phases of a closed curve's start tried by default (`phase_solve`, `run_phases`): one,
+#: the linear fit at the samples' chord-length positions. `phases=4` against it
 #: (`benchmarks/results/fit_phases.md`): the true curve of a known polygon reached in 32
-#: of 36 cases instead of 17; on real outlines the two-sided RMS better by over 5% in
-#: 29 of 76 fits but worse in 5 (up to 3.6x: a lower loss is not a lower two-sided RMS,
-#: `docs/fitting.md`), in a median 3.2x the time. Not the default until the phases are
-#: chosen by that RMS.
+#: of 36 cases instead of 17; on real outlines the two-sided RMS lower by over 5% in 31
+#: of 76 fits and never higher, in a median 3.9x the warm time (`docs/fitting.md`, "Phase
+#: of the start", says why it is not yet the default).
 PHASES = 1
 
 
@@ -532,13 +531,30 @@ class PhaseSolution(eqx.Module):
     stats: dict[str, Any]
 
 
+def phase_preferred(rms, ended, best_rms, best_ended, tol, size):
+    """Whether a later phase's fit (two-sided RMS `rms`, non-finite as inf; `ended`:
+    False when stopped by `max_steps`) replaces the best so far (`best_rms`,
+    `best_ended`): lower by more than the solver's tolerance (`tol` of it, and `tol` of
+    the outline's `size`: the RMS the solver calls converged), and not a fit stopped by
+    `max_steps` for one that ended. Within the tolerance the earlier phase is kept:
+    starts that reach the same curve, often with the polygon relabelled, tie to
+    rounding, which would make the choice (and the polygon's labels) differ between
+    programs (`fit`'s phases one by one and `fit_batch`'s `phase_solve`, `jit` and not).
+    A lower RMS reported as "did not converge" is not what a search over phases should
+    give for a converged fit (as `prefer_start`): icon filesave at n = 64 ended 0.87x
+    phase 0's RMS after 500 steps. NumPy values or JAX arrays (also traced)."""
+    lower = rms < best_rms - (tol * best_rms + tol * size)
+    return (lower & (ended | ~best_ended)) | ((best_rms == jnp.inf) & (rms < best_rms))
+
+
 def phase_solve(objective: Objective, problem: Problem, tol, max_steps,
                 progress: bool = False) -> PhaseSolution:
     r"""The fit of a closed curve without fitted parameters from `objective.phases`
     starts, the linear fit with the control polygon's phase along the samples shifted by
     $j / K$ of a span ($j = 0, \dots, K - 1$; 0 is `fit`'s one start, `problem.start`),
-    each fitted to `tol`: the fit of least loss (the first of those within the solver's
-    tolerance of it).
+    each fitted to `tol`: the fit of least two-sided RMS (`curve_errors`, the figure
+    `fit` reports), the first of those within the solver's tolerance of it, and never
+    one stopped by `max_steps` in place of one that ended.
 
     The phase of a closed curve's control polygon is not given by its samples: the
     linear start puts the first control point's span at the first sample (in
@@ -546,45 +562,52 @@ def phase_solve(objective: Objective, problem: Problem, tol, max_steps,
     (`benchmarks/results/fit_phases.md`). Every start is fitted to `tol`: ranked after
     fits to 1e-6 instead, with the best continued, the start of least loss led to a
     two-sided RMS up to 7.6x that of the fit from phase 0 on real outlines
-    (`results/fit_phases_ranked.md`); now the loss is never above phase 0's. The K
-    solves are one `lax.scan` over one solver loop (its body compiled once) that
-    carries the best solution so far (memory does not grow with K), under
-    `stop_gradient`; the derivatives are the implicit ones of the fit returned
-    (`held_implicit`), as `optimistix.least_squares` gives its solution."""
+    (`results/fit_phases_ranked.md`). Chosen by least loss, fits to `tol` still reached
+    up to 3.6x phase 0's RMS (`results/fit_phases_by_loss.md`): the loss weighs the
+    curve-to-samples half less beyond a chord band, so a lower loss can be a higher
+    two-sided RMS. Chosen by that RMS, the fit returned is never above phase 0's by more
+    than the tolerance. The K solves and measurements are one `lax.scan` over one solver
+    loop (its body compiled once) that carries the best solution so far (memory does not
+    grow with K), under `stop_gradient`; the derivatives are the implicit ones of the fit
+    returned (`held_implicit`), as `optimistix.least_squares` gives its solution."""
     data = jax.lax.stop_gradient(problem.data)
-    n, K = objective.n, objective.phases
-    fractions = chord_fractions(data.target, True)
+    K = objective.phases
     solver = default_solver(objective, tol, problem.valid_count, max_steps, progress)
-    start = jax.lax.stop_gradient(problem.start["control"])
+
+    def two_sided_rms(value, stats):
+        # `measure_one`'s RMS in units of the outline's size: the feet the solver tracked
+        # (closed Hermite curves) are checked against global nearest points there too.
+        curve, tangents = objective.curve(value, data)
+        hint = stats.get("hint")
+        feet = hint[0] if hint is not None and objective.hermite else None
+        errors = curve_errors(curve, tangents, data.target, data.weights, data.count, feet,
+                              closed=True)
+        rms = jnp.maximum(errors.rms_target_to_curve, errors.rms_curve_to_target)
+        return jnp.where(jnp.isfinite(rms), rms, jnp.inf)
 
     def solve(j):
-        position = (fractions * n + j / K) % n
+        # (Phase 0 is `problem.start` exactly: `initial_control` at offset 0.)
         P0 = initial_control(data.target, data.weights, data.basis[0], "closed",
-                             data.root_smoothing**2, position)
-        # Phase 0 is the default start exactly (the positions above round differently).
-        control = jnp.where(j == 0, start, objective.unknowns(P0))
-        sol = optx.least_squares(objective.residuals, solver, {"control": control, "params": {}},
+                             data.root_smoothing**2, offset=(j / K).astype(data.target.dtype))
+        sol = optx.least_squares(objective.residuals, solver,
+                                 {"control": objective.unknowns(P0), "params": {}},
                                  args=data, max_steps=None, throw=False)
-        loss = sol.stats["model"][0]
-        return jnp.where(jnp.isfinite(loss), loss, jnp.inf), PhaseSolution(
-            sol.value, sol.result, sol.stats)
+        # (A fit stopped by `max_steps` is not a converged one, whatever its RMS.)
+        stopped = sol.result == optx.RESULTS.nonlinear_max_steps_reached
+        return (two_sided_rms(sol.value, sol.stats), ~stopped,
+                PhaseSolution(sol.value, sol.result, sol.stats))
 
     def keep_best(best, j):
-        loss, solution = solve(j)
-        # Lower by more than the solver's tolerance (as its stopping test), else the
-        # earlier phase is kept: starts that reach the same curve, often with the polygon
-        # relabelled, tie to rounding, which would make the choice (and the polygon's
-        # labels) differ between programs (a batch and a single fit, `jit` and not).
-        margin = solver.rtol * best[0] + solver.atol
-        better = (loss < best[0] - margin) | (j == 0) | (jnp.isinf(best[0]) & (loss < best[0]))
+        rms, ended, solution = solve(j)
+        better = (j == 0) | phase_preferred(rms, ended, best[0], best[1], tol, 1.0)
         return jax.tree.map(lambda new, old: jnp.where(better, new, old),
-                            (loss, solution), best), None
+                            (rms, ended, solution), best), None
 
     # The carry's first value: shaped as a solution, replaced by phase 0's.
     shapes = jax.eval_shape(solve, 0)
     empty = jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
-    first = (jnp.asarray(jnp.inf, shapes[0].dtype), empty[1])
-    (_, chosen), _ = jax.lax.scan(keep_best, first, jnp.arange(K))
+    first = (jnp.asarray(jnp.inf, shapes[0].dtype), jnp.asarray(False), empty[2])
+    (_, _, chosen), _ = jax.lax.scan(keep_best, first, jnp.arange(K))
     control = held_implicit(objective, chosen.value["control"], problem.data)
     return PhaseSolution({"control": control, "params": {}}, chosen.result, chosen.stats)
 
@@ -771,7 +794,50 @@ def run(data: FitData, init, tol, max_steps, *, objective: Objective, solver=Non
 
     With the persistent compilation cache on, a concrete call with the default solver
     runs programs exported to disk: a new process then skips tracing and lowering.
+
+    A concrete fit of several phases (`Objective.phases`) runs them one by one
+    (`run_phases`); a traced one, as `fit_batch`, in one program (`phase_solve`).
     """
+    args = (data, init, tol, max_steps)
+    if objective.phases > 1 and not any(is_traced(x) for x in jax.tree.leaves(args)):
+        return run_phases(data, init, tol, max_steps, objective=objective, solver=solver,
+                          progress=progress)
+    return run_once(data, init, tol, max_steps, objective=objective, solver=solver,
+                    progress=progress)[0]
+
+
+def run_phases(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
+               progress=False):
+    """`run` of a concrete fit from `objective.phases` starts (`phase_solve`'s), one by
+    one through one program: the fit of one phase, its start shifted by `FitData.phase`
+    (a traced number), and its measurement, whose two-sided RMS chooses
+    (`phase_preferred`). The programs are those of one phase with a shifted start:
+    `phase_solve`'s in-program measurement made a first fit compile 1.49x as long as one
+    phase's (`benchmarks/results/fit_phases.md`, 2026-12-07 22:52 UTC); these compile
+    once, whatever the number of phases."""
+    K = objective.phases
+    single = dataclasses.replace(objective, phases=1)
+    dtype = data.target.dtype
+    max_steps_code = int(status_code(FitStatus.nonlinear_max_steps_reached))
+    best = None
+    for j in range(K):
+        phased = eqx.tree_at(lambda d: d.phase, data, np.asarray(j / K, dtype),
+                             is_leaf=lambda x: x is None)
+        result, scale = run_once(phased, init, tol, max_steps, objective=single,
+                                 solver=solver, progress=progress)
+        rms = float(result.rms)
+        rms = np.float64(rms if np.isfinite(rms) else np.inf)
+        ended = np.bool_(int(result.status) != max_steps_code)
+        if best is None or phase_preferred(rms, ended, best[0], best[1], float(tol),
+                                           float(scale)):
+            best = (rms, ended, result)
+    return best[2]
+
+
+def run_once(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
+             progress=False) -> tuple[FitResult, Array]:
+    """`run` of one program's fit: its result, and the outline's size (the units the
+    solver works in, `Problem.scale`)."""
     steps = progress is True  # a line per solver step, from inside the program
     if progress:
         _progress.compiling(program_key(objective, data, init, solver, steps),
@@ -799,4 +865,4 @@ def run(data: FitData, init, tol, max_steps, *, objective: Objective, solver=Non
             jax.block_until_ready(result)
     if steps:
         _progress.finish()
-    return result
+    return result, solved.scale

@@ -284,6 +284,7 @@ def initial_control(
     smoothing,
     position=None,
     creases=None,
+    offset=None,
 ) -> Float[Array, "n d"]:
     """Linear least-squares control points for chord-length parameters (from the first
     sample: `fit` has put a closed outline's samples in `canonical_order`).
@@ -299,11 +300,17 @@ def initial_control(
 
     `position`: each sample's position in control-point units instead of its chord
     fraction (`corner_creases`); `creases`: the creased control points (no second
-    differences there).
+    differences there). `offset`: a closed curve's phase, in spans: the samples'
+    chord-length positions shifted by it along the control polygon (`FitData.phase`);
+    0 is the start without it, exactly.
     """
     closed = boundary == "closed"
     N, n = len(table), table.n
     fractions = chord_fractions(target, closed) if position is None else position / n
+    if offset is not None:
+        # (Exactly the fractions at offset 0: `% 1` would move a fraction of 1, the
+        # closing sample of an outline that repeats its first, to 0.)
+        fractions = jnp.where(offset == 0, fractions, (fractions + offset / n) % 1)
     W = weights / jnp.sum(weights)
     D = second_differences(n, closed, target.dtype, creases)
 

@@ -97,6 +97,9 @@ class FitData(eqx.Module):
       fit, `Objective.corners`), else None.
     - `creases`: `(n,)` flags of the creased control points, set from `corners` by
       `_core.set_up` (`_init.corner_creases`), else None.
+    - `phase`: a closed curve's start shifted by this many spans along the samples
+      (`_init.initial_control`'s `offset`; `_core.run` fits the phases of
+      `fit(phases=K)` one by one through it), else None (0).
     """
 
     target: Float[Array, "m d"]
@@ -107,6 +110,7 @@ class FitData(eqx.Module):
     count: Int[ArrayLike, ""] | None = None
     corners: Any = None
     creases: Any = None
+    phase: Any = None
 
 
 class TwoSidedErrors(eqx.Module):

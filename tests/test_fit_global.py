@@ -9,6 +9,7 @@ four-point scheme).
 import numpy as np
 import pytest
 from helpers import (
+    CompileCounter,
     four_point_numpy,
     glyph_outline,
     periodic_bspline,
@@ -130,6 +131,33 @@ def test_the_phase_of_the_start_is_searched(label, scheme, curve_of, seed):
                            polyline_distances(truth, fitted).max()) / size
     # (One phase must fail here, or the case no longer tests the search.)
     assert gaps[4] < 1e-5 < 1e-4 < gaps[1], gaps
+
+
+def test_phases_one_by_one_and_in_one_program_agree():
+    """`fit` runs the phases one by one through one program (the start's shift is a
+    traced number): other values and another number of phases compile nothing new.
+    `fit_batch` runs them in one program (`_core.phase_solve`); both choose the same
+    fit, by the two-sided RMS, not phase 0's (the samples of the B-spline case above)."""
+    _, scheme, curve_of, seed = known_curves[0]
+    polygon = wobbly_polygon(seed)
+    samples = uneven_samples(curve_of(polygon), seed)
+    n = len(polygon)
+    fitting.fit(samples[::-1] + 0.5, scheme, n, phases=2)  # the programs, compiled
+    with CompileCounter() as compiled:
+        single = fitting.fit(samples, scheme, n, phases=4, on_failure="raise")
+    assert compiled.count == 0
+    first = fitting.fit(samples, scheme, n, on_failure="raise")
+    batch = fitting.fit_batch(samples[None], scheme, n, phases=4)
+    assert int(batch.status[0]) == 0
+    size = np.ptp(samples, axis=0).max()
+    # Not phase 0's fit (3.8e-4 of the size from the truth, above; the RMS's floor is
+    # the samples' chords: 6.5e-5 against 4.0e-4), and the same in both.
+    assert float(single.rms) < 0.5 * float(first.rms)
+    # (To the fit's accuracy in its control points, which the two programs reach by
+    # different rounding: 3e-6 of the size apart; phase 0's fit is 3.8e-4 away.)
+    np.testing.assert_allclose(batch.control_points[0], single.control_points,
+                               atol=1e-5 * size)
+    np.testing.assert_allclose(batch.rms[0], single.rms, atol=1e-7 * size)
 
 
 @pytest.mark.parametrize("phases, options, error", [
