@@ -6,9 +6,9 @@
 A closed curve's linear start puts its control polygon's first span at the first sample
 (in the samples' canonical order), and which local minimum the fit then reaches depends
 on that phase. `phases=K` fits K starts, the polygon's phase shifted by j/K of a span,
-each to `tol`, and returns the one of least two-sided RMS (`fitting._core.phase_solve`;
-until 2026-12-07 the one of least loss: `results/fit_phases_by_loss.md`). Both settings run in
-this one process, alternating, on:
+each to `tol`, and returns the converged one of least two-sided RMS (`fit` runs them one
+by one, `fitting._core.run_phases`; until 2026-12-07 23:00 UTC the one of least loss:
+`results/fit_phases_by_loss.md`). Both settings run in this one process, alternating, on:
 
 - **curves made from known polygons** (noise-free, exactly representable): the
   wobbly-ellipse polygons of 16 points and the uneven samples of

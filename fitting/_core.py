@@ -518,7 +518,7 @@ def default_solver(objective: Objective, tol, valid_count, max_steps, progress=F
 #: the linear fit at the samples' chord-length positions. `phases=4` against it
 #: (`benchmarks/results/fit_phases.md`): the true curve of a known polygon reached in 32
 #: of 36 cases instead of 17; on real outlines the two-sided RMS lower by over 5% in 31
-#: of 76 fits and never higher, in a median 3.9x the warm time (`docs/fitting.md`, "Phase
+#: of 76 fits and never higher, in a median 3.8x the warm time (`docs/fitting.md`, "Phase
 #: of the start", says why it is not yet the default).
 PHASES = 1
 
@@ -531,20 +531,27 @@ class PhaseSolution(eqx.Module):
     stats: dict[str, Any]
 
 
-def phase_preferred(rms, ended, best_rms, best_ended, tol, size):
-    """Whether a later phase's fit (two-sided RMS `rms`, non-finite as inf; `ended`:
-    False when stopped by `max_steps`) replaces the best so far (`best_rms`,
-    `best_ended`): lower by more than the solver's tolerance (`tol` of it, and `tol` of
-    the outline's `size`: the RMS the solver calls converged), and not a fit stopped by
-    `max_steps` for one that ended. Within the tolerance the earlier phase is kept:
-    starts that reach the same curve, often with the polygon relabelled, tie to
+def phase_preferred(rms, converged, best_rms, best_converged, tol, size):
+    """Whether a later phase's fit (two-sided RMS `rms`, non-finite as inf; `converged`:
+    its status is success) replaces the best so far (`best_rms`, `best_converged`): a
+    converged fit replaces one that did not converge; between two that both converged
+    or both did not, the one of lower RMS, by more than the solver's tolerance (`tol`
+    of it, and `tol` of the outline's `size`: the RMS the solver calls converged). So
+    the choice does not depend on the phases' order: the converged fit of least RMS,
+    else the fit of least RMS (a lower RMS reported as "did not converge" is not what a
+    search should return when a phase converged: icon filesave at n = 64 ended at 0.87x
+    phase 0's RMS after 500 steps, `max_steps`). Within the tolerance the earlier phase
+    is kept: starts that reach the same curve, often with the polygon relabelled, tie to
     rounding, which would make the choice (and the polygon's labels) differ between
     programs (`fit`'s phases one by one and `fit_batch`'s `phase_solve`, `jit` and not).
-    A lower RMS reported as "did not converge" is not what a search over phases should
-    give for a converged fit (as `prefer_start`): icon filesave at n = 64 ended 0.87x
-    phase 0's RMS after 500 steps. NumPy values or JAX arrays (also traced)."""
-    lower = rms < best_rms - (tol * best_rms + tol * size)
-    return (lower & (ended | ~best_ended)) | ((best_rms == jnp.inf) & (rms < best_rms))
+    NumPy values (on the host: no program is compiled) or JAX arrays (also traced)."""
+    xp = jnp if any(is_traced(x) or isinstance(x, jax.Array)
+                    for x in (rms, converged, best_rms, best_converged)) else np
+    # (Written without inf - inf, which NumPy warns about, for a best of inf.)
+    lower = rms + tol * (best_rms + size) < best_rms
+    same = converged == best_converged
+    return ((converged & xp.logical_not(best_converged)) | (same & lower)
+            | (same & (best_rms == xp.inf) & (rms < best_rms)))
 
 
 def phase_solve(objective: Objective, problem: Problem, tol, max_steps,
@@ -552,9 +559,9 @@ def phase_solve(objective: Objective, problem: Problem, tol, max_steps,
     r"""The fit of a closed curve without fitted parameters from `objective.phases`
     starts, the linear fit with the control polygon's phase along the samples shifted by
     $j / K$ of a span ($j = 0, \dots, K - 1$; 0 is `fit`'s one start, `problem.start`),
-    each fitted to `tol`: the fit of least two-sided RMS (`curve_errors`, the figure
-    `fit` reports), the first of those within the solver's tolerance of it, and never
-    one stopped by `max_steps` in place of one that ended.
+    each fitted to `tol`: the converged fit of least two-sided RMS (`curve_errors`, the
+    figure `fit` reports), else the fit of least RMS, the first of those within the
+    solver's tolerance of it (`phase_preferred`).
 
     The phase of a closed curve's control polygon is not given by its samples: the
     linear start puts the first control point's span at the first sample (in
@@ -574,6 +581,8 @@ def phase_solve(objective: Objective, problem: Problem, tol, max_steps,
     K = objective.phases
     solver = default_solver(objective, tol, problem.valid_count, max_steps, progress)
 
+    start = jax.lax.stop_gradient(problem.start["control"])
+
     def two_sided_rms(value, stats):
         # `measure_one`'s RMS in units of the outline's size: the feet the solver tracked
         # (closed Hermite curves) are checked against global nearest points there too.
@@ -586,22 +595,22 @@ def phase_solve(objective: Objective, problem: Problem, tol, max_steps,
         return jnp.where(jnp.isfinite(rms), rms, jnp.inf)
 
     def solve(j):
-        # (Phase 0 is `problem.start` exactly: `initial_control` at offset 0.)
         P0 = initial_control(data.target, data.weights, data.basis[0], "closed",
                              data.root_smoothing**2, offset=(j / K).astype(data.target.dtype))
-        sol = optx.least_squares(objective.residuals, solver,
-                                 {"control": objective.unknowns(P0), "params": {}},
+        # Phase 0 is `problem.start`, the one-phase fit's start (also from its program).
+        control = jnp.where(j == 0, start, objective.unknowns(P0))
+        sol = optx.least_squares(objective.residuals, solver, {"control": control, "params": {}},
                                  args=data, max_steps=None, throw=False)
-        # (A fit stopped by `max_steps` is not a converged one, whatever its RMS.)
-        stopped = sol.result == optx.RESULTS.nonlinear_max_steps_reached
-        return (two_sided_rms(sol.value, sol.stats), ~stopped,
+        # Converged as `solve_one` reports it (`settled`; no `lax.cond`, see there).
+        result = settled(sol.result, sol.stats["model"], solver.rtol, solver.atol)
+        return (two_sided_rms(sol.value, sol.stats), result == optx.RESULTS.successful,
                 PhaseSolution(sol.value, sol.result, sol.stats))
 
     def keep_best(best, j):
-        rms, ended, solution = solve(j)
-        better = (j == 0) | phase_preferred(rms, ended, best[0], best[1], tol, 1.0)
+        rms, converged, solution = solve(j)
+        better = (j == 0) | phase_preferred(rms, converged, best[0], best[1], tol, 1.0)
         return jax.tree.map(lambda new, old: jnp.where(better, new, old),
-                            (rms, ended, solution), best), None
+                            (rms, converged, solution), best), None
 
     # The carry's first value: shaped as a solution, replaced by phase 0's.
     shapes = jax.eval_shape(solve, 0)
@@ -783,7 +792,8 @@ def program_key(objective: Objective, data: FitData, init, solver, progress: boo
     """What selects `solve_jit`'s compiled program besides the data's values (for the
     progress display's "compiling" line)."""
     return (objective, data.target.shape[1], str(data.target.dtype), init is None,
-            jax.tree.structure(data.scheme), type(solver).__name__, progress)
+            jax.tree.structure(data.scheme), type(solver).__name__, progress,
+            data.phase is None)
 
 
 def run(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
@@ -810,34 +820,41 @@ def run_phases(data: FitData, init, tol, max_steps, *, objective: Objective, sol
                progress=False):
     """`run` of a concrete fit from `objective.phases` starts (`phase_solve`'s), one by
     one through one program: the fit of one phase, its start shifted by `FitData.phase`
-    (a traced number), and its measurement, whose two-sided RMS chooses
-    (`phase_preferred`). The programs are those of one phase with a shifted start:
-    `phase_solve`'s in-program measurement made a first fit compile 1.49x as long as one
-    phase's (`benchmarks/results/fit_phases.md`, 2026-12-07 22:52 UTC); these compile
-    once, whatever the number of phases."""
+    (a traced number), and its measurement, whose status and two-sided RMS choose
+    (`phase_preferred`). The programs are those of one phase with a phase input (one
+    solve program more than a fit of one phase, whatever K; the measurement's is
+    shared): `phase_solve`'s in-program measurement made a first fit compile 1.48x as
+    long as one phase's (`benchmarks/results/fit_phases_in_one_program.md`, 2026-12-07
+    22:59 UTC), these 1.02x (`fit_phases.md`, 23:39 UTC). `num_steps` and `status` are the chosen
+    fit's."""
     K = objective.phases
     single = dataclasses.replace(objective, phases=1)
     dtype = data.target.dtype
-    max_steps_code = int(status_code(FitStatus.nonlinear_max_steps_reached))
     best = None
     for j in range(K):
         phased = eqx.tree_at(lambda d: d.phase, data, np.asarray(j / K, dtype),
                              is_leaf=lambda x: x is None)
         result, scale = run_once(phased, init, tol, max_steps, objective=single,
-                                 solver=solver, progress=progress)
+                                 solver=solver, progress=progress,
+                                 label=f"fitting, phase {j + 1} of {K}")
+        if any(is_traced(x) for x in (result.rms, result.status, scale)):
+            # Concrete inputs inside an outer trace (`jit` of a function that closes over
+            # them): the results are traced, so the phases are chosen in one program.
+            return run_once(data, init, tol, max_steps, objective=objective, solver=solver,
+                            progress=progress)[0]
         rms = float(result.rms)
         rms = np.float64(rms if np.isfinite(rms) else np.inf)
-        ended = np.bool_(int(result.status) != max_steps_code)
-        if best is None or phase_preferred(rms, ended, best[0], best[1], float(tol),
+        converged = np.bool_(int(result.status) == 0)
+        if best is None or phase_preferred(rms, converged, best[0], best[1], float(tol),
                                            float(scale)):
-            best = (rms, ended, result)
+            best = (rms, converged, result)
     return best[2]
 
 
 def run_once(data: FitData, init, tol, max_steps, *, objective: Objective, solver=None,
-             progress=False) -> tuple[FitResult, Array]:
+             progress=False, label: str = "fitting") -> tuple[FitResult, Array]:
     """`run` of one program's fit: its result, and the outline's size (the units the
-    solver works in, `Problem.scale`)."""
+    solver works in, `Problem.scale`). `label`: the progress line's."""
     steps = progress is True  # a line per solver step, from inside the program
     if progress:
         _progress.compiling(program_key(objective, data, init, solver, steps),
@@ -846,7 +863,7 @@ def run_once(data: FitData, init, tol, max_steps, *, objective: Objective, solve
     static = dict(objective=objective, solver=solver, progress=steps)
     concrete = not any(is_traced(x) for x in jax.tree.leaves(args))
     exported = solver is None and not steps and _exported.folder() is not None and concrete
-    clock = _progress.elapsed() if progress == "time" else contextlib.nullcontext()
+    clock = _progress.elapsed(label=label) if progress == "time" else contextlib.nullcontext()
     # One BLAS thread while the programs run (`_threads`), so they must have finished
     # inside the block: a concrete fit is waited for here (its caller reads its status
     # next anyway).

@@ -169,14 +169,16 @@ def fit(
       start's).
     - `phases`: a closed curve's fit from this many starts, the linear fit with the
       control polygon's phase along the samples shifted by 0, 1/K, ..., (K - 1)/K of a
-      span, each fitted to `tol`; the fit of least two-sided RMS (`rms`) is returned,
-      never one stopped by `max_steps` in place of one that ended (static; default
+      span, each fitted to `tol`; the converged fit of least two-sided RMS (`rms`) is
+      returned, else (none converged) the fit of least RMS; its `num_steps` and `status`
+      are that fit's (static; default
       `fitting.PHASES` = 1, the linear start at the samples' chord-length positions
       alone). Which local minimum a fit reaches depends on that phase:
       `benchmarks/results/fit_phases.md` measures `phases=4` against 1 (`docs/fitting.md`,
       "Phase of the start"): never a higher RMS, lower by over 5% in 31 of 76 real
       outlines. About K times the time; the phases run through the programs of one fit
-      (nothing more is compiled).
+      (one program beside one phase's, whatever K; under `jit` or `grad`, in one
+      program, `fit_batch`'s).
       More than 1 with an open `boundary`, `fit_params`, `init` or another `solver` is a
       `ValueError`; with `corners` found it is not searched (the corners place the spans).
     - `init`: starting control points `(n, d)` instead of the linear fit. A fit from

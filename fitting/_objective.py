@@ -98,8 +98,10 @@ class FitData(eqx.Module):
     - `creases`: `(n,)` flags of the creased control points, set from `corners` by
       `_core.set_up` (`_init.corner_creases`), else None.
     - `phase`: a closed curve's start shifted by this many spans along the samples
-      (`_init.initial_control`'s `offset`; `_core.run` fits the phases of
-      `fit(phases=K)` one by one through it), else None (0).
+      (`_init.initial_control`'s `offset`), or None (0): `_core.run_phases` fits the
+      phases of `fit(phases=K)` one by one through it, in one program for any K and
+      phase. (Not set for one phase: a program with it rounds differently, and `fit`
+      and `fit_batch` of one phase agree to 1e-8, tested.)
     """
 
     target: Float[Array, "m d"]
@@ -252,7 +254,8 @@ class Objective(eqx.Module):
     # Closed curves with corners: creased control points (`FitData.creases`).
     corners: bool = eqx.field(static=True, default=False)
     # Closed curves without corners, fitted parameters, `init` or another solver: the
-    # phases of the start tried (`_core.phase_solve`); 1 for the linear start alone.
+    # phases of the start tried (`_core.phase_solve`, or one by one in `_core.run_phases`);
+    # 1 for the linear start alone.
     phases: int = eqx.field(static=True, default=1)
 
     @property

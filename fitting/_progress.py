@@ -115,17 +115,17 @@ def finish():
 
 
 @contextlib.contextmanager
-def elapsed(interval: float = 0.25):
-    """While the block runs, a line on stderr with the seconds since it began, updated
-    every `interval` seconds from a host thread (nothing enters the compiled program);
-    when stderr is not a terminal, only the final line."""
+def elapsed(interval: float = 0.25, label: str = "fitting"):
+    """While the block runs, a line on stderr (`label`: seconds) with the seconds since
+    it began, updated every `interval` seconds from a host thread (nothing enters the
+    compiled program); when stderr is not a terminal, only the final line."""
     start = time.perf_counter()
     stop = threading.Event()
 
     def show():
         while not stop.wait(interval):
             now = time.perf_counter()
-            _update(f"  fitting: {now - start:6.1f} s", now, force=True)
+            _update(f"  {label}: {now - start:6.1f} s", now, force=True)
 
     # Off a live stream nothing is shown until the end: no thread.
     thread = threading.Thread(target=show, daemon=True) if _live() else None
@@ -137,5 +137,5 @@ def elapsed(interval: float = 0.25):
         stop.set()
         if thread is not None:
             thread.join()
-        _state["line"] = f"  fitting: {time.perf_counter() - start:6.1f} s, done"
+        _state["line"] = f"  {label}: {time.perf_counter() - start:6.1f} s, done"
         finish()

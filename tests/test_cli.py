@@ -112,11 +112,13 @@ def test_fit_circle_from_csv_with_the_installed_script(tmp_path):
     result = run("fit", source, "--scheme", "chaikin", "--n", 16, "-o", out, "--svg", svg,
                  "--plot", png)
     assert result.returncode == 0, result.stderr
-    # The progress display: a first-use note, then the elapsed time.
+    # The progress display: a first-use note, then the elapsed time of each phase of the
+    # start searched (`--phases`, default 4 for a closed contour without corners).
     assert "preparing the fit for 224 samples" in result.stderr
-    assert re.search(r"fitting: +[0-9.]+ s, done", result.stderr)
-    # stderr is a pipe here, not a terminal: one final line, no rewrites piling up.
-    assert "\r" not in result.stderr and result.stderr.count("fitting:") == 1
+    assert re.findall(r"fitting, phase (\d) of 4: +[0-9.]+ s, done", result.stderr) == list("1234")
+    # stderr is a pipe here, not a terminal: one final line each, no rewrites piling up.
+    assert "\r" not in result.stderr and result.stderr.count("fitting") == 4
+    assert json.loads(out.read_text())["info"]["phases"] == 4
     assert "contour 1 of 1: 200 samples, closed" in result.stdout
     assert "status     converged" in result.stdout
     saved = json.loads(out.read_text())
@@ -205,10 +207,12 @@ def test_fit_open_stroke_with_pinned_ends(capsys, tmp_path):
 
 
 def test_fit_with_phases_recovers_a_known_curve(capsys, tmp_path):
-    """--phases 4 reaches the curve a CSV's samples were drawn from (a closed cubic
-    B-spline of a known 16-point polygon, scipy's; samples spaced unevenly), where the
-    one start of the default stops in a local minimum: the saved control points' curve
-    within 1e-5 of the size of the truth, against 1e-4 or more without."""
+    """The command's default (4 phases) and --phases 4 reach the curve a CSV's samples
+    were drawn from (a closed cubic B-spline of a known 16-point polygon, scipy's;
+    samples spaced unevenly), where one start (--phases 1, `fitting.fit`'s default)
+    stops in a local minimum: the saved control points' curve within 1e-5 of the size
+    of the truth, against 1e-4 or more from one. The JSON records the phases searched;
+    with --fit-params they are not searched, and by default that is no error."""
     polygon = wobbly_polygon(0)
     dense = lambda P: periodic_bspline(np.asarray(P), 3)(np.linspace(0, 16, 2**12, endpoint=False))
     truth = dense(polygon)
@@ -216,14 +220,23 @@ def test_fit_with_phases_recovers_a_known_curve(capsys, tmp_path):
     source = tmp_path / "known.csv"
     source.write_text("".join(f"{float(x)!r},{float(y)!r}\n" for x, y in uneven_samples(truth, 0)))
     gaps = {}
-    for phases in (1, 4):
+    for phases in (1, 4, None):
+        option = () if phases is None else ("--phases", phases)
+        saved = tmp_path / f"p{phases}.json"
         status, out, err = cli(capsys, "fit", source, "--n", 16, "--corners", "none",
-                               "--phases", phases, "--quiet", "-o", tmp_path / f"p{phases}.json")
+                               *option, "--quiet", "-o", saved)
         assert status == 0, err
-        fitted = dense(json.loads((tmp_path / f"p{phases}.json").read_text())["control_points"])
+        written = json.loads(saved.read_text())
+        assert written["info"]["phases"] == (phases or 4)
+        fitted = dense(written["control_points"])
         gaps[phases] = max(polyline_distances(fitted, truth).max(),
                            polyline_distances(truth, fitted).max()) / size
-    assert gaps[4] < 1e-5 < 1e-4 < gaps[1], gaps
+    assert max(gaps[4], gaps[None]) < 1e-5 < 1e-4 < gaps[1], gaps
+    saved = tmp_path / "params.json"
+    status, _, err = cli(capsys, "fit", source, "--n", 16, "--scheme", "four-point",
+                         "--fit-params", "--quiet", "-o", saved)
+    assert status in (0, 1) and "error" not in err, err
+    assert json.loads(saved.read_text())["info"]["phases"] == 1
     for bad in (("--phases", 0), ("--phases", 4, "--fit-params", "--scheme", "four-point"),
                 ("--phases", 4, "--boundary", "open")):
         status, _, err = cli(capsys, "fit", source, *bad)

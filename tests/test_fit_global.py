@@ -6,6 +6,7 @@ bucket), n = 32; but those of curves made from known polygons (n = 16, and the
 four-point scheme).
 """
 
+import jax
 import numpy as np
 import pytest
 from helpers import (
@@ -135,8 +136,8 @@ def test_the_phase_of_the_start_is_searched(label, scheme, curve_of, seed):
 
 def test_phases_one_by_one_and_in_one_program_agree():
     """`fit` runs the phases one by one through one program (the start's shift is a
-    traced number): other values and another number of phases compile nothing new.
-    `fit_batch` runs them in one program (`_core.phase_solve`); both choose the same
+    traced number): other values and another number of phases compile nothing new. `fit_batch`, and `fit` under `jit` with its data closed over (concrete inputs,
+    traced results), run them in one program (`_core.phase_solve`); all choose the same
     fit, by the two-sided RMS, not phase 0's (the samples of the B-spline case above)."""
     _, scheme, curve_of, seed = known_curves[0]
     polygon = wobbly_polygon(seed)
@@ -149,6 +150,8 @@ def test_phases_one_by_one_and_in_one_program_agree():
     first = fitting.fit(samples, scheme, n, on_failure="raise")
     batch = fitting.fit_batch(samples[None], scheme, n, phases=4)
     assert int(batch.status[0]) == 0
+    closed_over = jax.jit(lambda: fitting.fit(samples, scheme, n, phases=4).control_points)()
+    np.testing.assert_allclose(closed_over, single.control_points, atol=1e-5 * np.ptp(samples))
     size = np.ptp(samples, axis=0).max()
     # Not phase 0's fit (3.8e-4 of the size from the truth, above; the RMS's floor is
     # the samples' chords: 6.5e-5 against 4.0e-4), and the same in both.
@@ -158,6 +161,30 @@ def test_phases_one_by_one_and_in_one_program_agree():
     np.testing.assert_allclose(batch.control_points[0], single.control_points,
                                atol=1e-5 * size)
     np.testing.assert_allclose(batch.rms[0], single.rms, atol=1e-7 * size)
+
+
+#: (rms, converged, best rms, best converged, replaces): `phase_preferred`'s rule as
+#: documented, at tol = 1e-6 and size 1: a converged fit replaces one that is not
+#: whatever their RMS, never the reverse; otherwise lower by more than the tolerance;
+#: non-finite RMS as inf.
+phase_choices = [
+    (2.0, True, 1.0, False, True), (1.0, False, 2.0, True, False),
+    (1.0, True, 2.0, True, True), (2.0, True, 1.0, True, False),
+    (1.0, False, 2.0, False, True), (1.0 - 1e-7, True, 1.0, True, False),
+    (np.inf, True, 1.0, True, False), (1.0, True, np.inf, True, True),
+    (np.inf, True, np.inf, True, False), (np.inf, True, 1.0, False, True),
+]
+
+
+@pytest.mark.parametrize("rms, converged, best_rms, best_converged, replaces", phase_choices)
+def test_the_phase_is_chosen_by_convergence_then_rms(rms, converged, best_rms,
+                                                     best_converged, replaces):
+    from fitting._core import phase_preferred
+
+    args = (np.float64(rms), np.bool_(converged), np.float64(best_rms),
+            np.bool_(best_converged), 1e-6, 1.0)
+    assert bool(phase_preferred(*args)) is replaces  # on the host (no warning for inf)
+    assert bool(jax.jit(phase_preferred)(*args)) is replaces  # traced, as in a program
 
 
 @pytest.mark.parametrize("phases, options, error", [
