@@ -309,9 +309,18 @@ def _refine(args) -> int:
     _check_no_overwrite(args, [(o, p) for o, p in (("-o", args.output), ("--plot", args.plot))
                                if p])
     refined = []
-    for outline in outlines:
+    for i, outline in enumerate(outlines):
         boundary = args.boundary or ("closed" if outline.closed else "open")
         points = np.asarray(js.refine(outline.points, scheme, args.levels, boundary=boundary))
+        if not np.all(np.isfinite(points)):
+            # Refinement by weights far outside the scheme's range grows the points by a
+            # factor per level until they overflow: no output, no picture of NaN.
+            contour = f"contour {i + 1} of {len(outlines)}: " if len(outlines) > 1 else ""
+            raise ValueError(
+                f"{contour}the refined points overflow to inf or NaN by level {args.levels}: "
+                f"the scheme's parameters are far outside the range where it converges "
+                f"(the warning above says which, if any), or the coordinates are too large; "
+                f"use parameters in that range, or fewer --levels")
         refined.append(js.io.Outline(points, boundary == "closed", outline.group))
         print(f"{len(outline.points)} -> {len(points)} points ({boundary})")
     if args.output:

@@ -458,6 +458,19 @@ def test_refine_file_matches_plain_python_chaikin(capsys, tmp_path):
     assert _pixels_vary(png)
 
 
+def test_refine_that_overflows_is_an_error_not_a_picture(capsys, tmp_path):
+    # Split-and-tweak at t = -1e300 (it converges for -9 < t < 7) grows the points by
+    # about 1e300 per level: inf and NaN by level 5. It printed "10 -> 320 points",
+    # exit 0, and plotted NaN (found by a user try-out); now one line, status 2, naming
+    # the fix, and no picture.
+    png = tmp_path / "r.png"
+    status, out, err = cli(capsys, "refine", "--shape", "star", "--scheme", "split-tweak",
+                           "--t=-1e300", "--plot", png)
+    assert status == 2 and not png.exists(), (out, err)
+    assert "overflow to inf or NaN by level 5" in err and "--levels" in err
+    assert "outside -9 < t < 7" in err  # the divergence warning, one line before
+
+
 def test_refine_builtin_shape_four_point_keeps_its_points(capsys, tmp_path):
     out = tmp_path / "star.json"
     status, _, err = cli(capsys, "refine", "--shape", "star", "--scheme", "four-point",
