@@ -18,7 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import all_schemes, assert_one_clear_error, bspline_schemes
+from helpers import all_schemes, assert_one_clear_error, bspline_schemes, four_point_numpy
 from scipy.interpolate import BSpline
 
 import jaxsubdiv as js
@@ -723,6 +723,52 @@ HOSTILE = [
 @pytest.mark.parametrize("call, error, words", [c[1:] for c in HOSTILE], ids=[c[0] for c in HOSTILE])
 def test_hostile_input_is_one_clear_error(call, error, words):
     assert_one_clear_error(call, error, words)
+
+
+@pytest.mark.parametrize("w", [100.0, 1e4])
+def test_smoothness_far_outside_the_range_matches_the_growth_of_differences(w):
+    # Four-point far outside -1/2 < w < 1/2: the Hölder exponent against an independent
+    # estimate, the growth of the largest first difference of a refined impulse per
+    # level (plain numpy refinement, levels 7 to 8): 2^-alpha.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", js.DivergenceWarning)
+        scheme = js.FourPoint(w)
+    result = js.smoothness(scheme)
+    impulse = np.zeros((16, 2))
+    impulse[8, 0] = 1.0
+    largest = [np.abs(np.diff(four_point_numpy(impulse, w, levels)[:, 0])).max()
+               for levels in (7, 8)]
+    assert not result.converges and result.decided
+    np.testing.assert_allclose(result.holder_lower, -np.log2(largest[1] / largest[0]),
+                               rtol=1e-4)
+
+
+@pytest.mark.parametrize("w", [1e8, 1e16])
+def test_smoothness_of_a_mask_too_large_for_float64_is_undecided(w):
+    # At w = 1e16, 1/2 + w rounds to w and the sub-masks sum to 0: it said "not affine
+    # invariant", about a scheme that is; at 1e8 the products overflowed, LAPACK wrote
+    # to stdout and `analyze` raised a LinAlgError (found by a user try-out).
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", js.DivergenceWarning)
+        scheme = js.FourPoint(w)
+    result = js.analyze(scheme).smoothness
+    assert not result.converges and not result.decided
+    assert str(result).startswith("undecided: the mask's entries") and "float64" in str(result)
+
+
+def test_joint_spectral_radius_of_huge_matrices():
+    # Homogeneity, rho(c T) = c rho(T): at c = 2^600 the products of 80 matrices
+    # overflowed (inf, then a LinAlgError); the bounds must bracket c times those of T.
+    from jaxsubdiv._analysis.smoothness import factor_symbol, jsr_search, transition_matrices
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", js.DivergenceWarning)
+        mask = np.asarray(js.FourPoint(100.0).mask())
+    n, q = factor_symbol(mask)
+    matrices = transition_matrices(q)
+    lo, hi, _ = jsr_search(matrices, n)
+    big_lo, big_hi, _ = jsr_search(matrices * 2.0**600, n)
+    assert np.isfinite(big_hi) and big_lo <= hi * 2.0**600 and lo * 2.0**600 <= big_hi
 
 
 def test_smoothness_just_inside_the_size_limit():

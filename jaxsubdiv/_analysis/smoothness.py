@@ -88,7 +88,8 @@ class Smoothness:
 
     def __str__(self) -> str:
         if self.holder_lower == -math.inf:
-            return f"does not converge: {self.reason}"
+            verdict = "does not converge" if self.decided else "undecided"
+            return f"{verdict}: {self.reason}"
         if self.holder_lower == self.holder_upper or self.method == "invariant polytope":
             holder = f"Hölder exponent {self.holder_lower:.4f} (exact, {self.method})"
         else:
@@ -304,6 +305,16 @@ def jsr_search(matrices: np.ndarray, n: int) -> tuple[float, float, str]:
     m = matrices.shape[-1]
     if m == 0:
         return 1.0, 1.0, "closed form"
+    # The joint spectral radius is homogeneous: matrices of large entries (a parameter
+    # far outside a scheme's range) are divided by a power of two near their largest
+    # norm, exactly, so that products of up to 80 of them do not overflow (four-point at
+    # w = 1e8: inf, then LAPACK's complaints on stdout and a LinAlgError); the bounds are
+    # multiplied back. Matrices of norm up to 2 (every scheme in its range) are as given.
+    largest = float(np.max(_norm(matrices)))
+    scale = 2.0 ** math.ceil(math.log2(largest)) if largest > 2 else 1.0
+    if scale != 1.0:
+        lo, hi, method = jsr_search(matrices / scale, n)
+        return lo * scale, hi * scale, method
     lo, hi, searched = jsr_bounds(matrices, **_effort(_PASSES[0], m))
     low_alpha, high_alpha = _holder_bracket(n, lo, hi)
     if lo == hi or (high_alpha - low_alpha <= FAST_WIDTH and _decided(low_alpha, high_alpha)):
@@ -327,6 +338,28 @@ def jsr_search(matrices: np.ndarray, n: int) -> tuple[float, float, str]:
 @ft.lru_cache(maxsize=4096)
 def _smoothness_cached(mask: tuple[float, ...], tol: float = 1e-9) -> Smoothness:
     a = np.asarray(mask)
+    rounding = len(a) * np.finfo(a.dtype).eps * float(np.max(np.abs(a)))
+    if not rounding < tol:
+        # Entries so large that the sums below round by more than `tol`: whether the
+        # sub-masks sum to one cannot be seen in float64 (four-point at w = 1e16: 1/2 + w
+        # rounds to w, its sums to 0, which read as "not affine invariant").
+        return Smoothness(
+            converges=False,
+            holder_lower=-math.inf,
+            holder_upper=math.inf,
+            continuity=-1,
+            decided=False,
+            factors=0,
+            jsr_lower=0.0,
+            jsr_upper=math.inf,
+            method="none",
+            reason=(
+                f"the mask's entries (up to {float(np.max(np.abs(a))):.3g}) are too large to "
+                f"analyze in float64: its sums round by up to {rounding:.2g}, more than the "
+                f"{tol:g} the test of affine invariance needs (a scheme's parameters this "
+                "large are far outside the range where it converges)"
+            ),
+        )
     even, odd = a[0::2].sum(), a[1::2].sum()  # parity relative to the first index
     if not (abs(even - 1) < tol and abs(odd - 1) < tol):
         return Smoothness(
