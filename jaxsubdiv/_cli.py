@@ -619,6 +619,15 @@ def _fit(args) -> int:
         + f" to {_source(args)}: {count} contour{'s' if count > 1 else ''}"
         + (" (scheme parameters fitted too)" if args.fit_params else "")
     )
+    if not args.fit_params:
+        # A scheme with no limit curve (the warning above, if its range is declared)
+        # fits its polygon at --levels: the status is the solver's, not the scheme's.
+        verdict = js.smoothness(scheme)
+        if not verdict.converges:
+            print(f"  note       {_scheme_text(args.scheme, scheme)} has no "
+                  f"{'' if verdict.decided else 'proven '}limit curve (jaxsubdiv.smoothness: "
+                  f"{verdict}): the fitted curve is a refined polygon that changes with "
+                  "--levels, and 'converged' below is the solver's")
     results, sizes, pinned, stop_reasons, pixel_errors = [], [], [], {}, {}
     searched = {}  # contour -> the phases its fit searched
     # Corners need a scheme whose closed curves take creases as data.

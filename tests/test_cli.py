@@ -206,6 +206,19 @@ def test_fit_open_stroke_with_pinned_ends(capsys, tmp_path):
                                atol=1e-12)
 
 
+def test_fit_with_a_scheme_without_a_limit_curve_says_so(capsys):
+    # Four-point at w = 0.6 does not converge (|w| < 1/2 is needed; Hölder exponent
+    # below 0): its fit is of a refined polygon. It said "converged" and nothing else
+    # on stdout (found by a user try-out); the warning goes to stderr.
+    status, out, err = cli(capsys, "fit", "--shape", "star", "--scheme", "four-point",
+                           "--w", 0.6, "--quiet")
+    assert status == 0, err
+    assert "four-point (w=0.6) has no limit curve (jaxsubdiv.smoothness: does not converge" in out
+    assert "changes with --levels" in out
+    status, out, _ = cli(capsys, "fit", "--shape", "star", "--scheme", "four-point", "--quiet")
+    assert status == 0 and "limit curve" not in out
+
+
 def test_fit_with_phases_recovers_a_known_curve(capsys, tmp_path):
     """The command's default (4 phases) and --phases 4 reach the curve a CSV's samples
     were drawn from (a closed cubic B-spline of a known 16-point polygon, scipy's;
