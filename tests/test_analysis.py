@@ -18,7 +18,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import all_schemes, assert_one_clear_error, bspline_schemes, four_point_numpy
+from helpers import (
+    all_schemes,
+    assert_one_clear_error,
+    bspline_schemes,
+    four_point_numpy,
+)
 from scipy.interpolate import BSpline
 
 import jaxsubdiv as js
@@ -759,7 +764,11 @@ def test_smoothness_of_a_mask_too_large_for_float64_is_undecided(w):
 def test_joint_spectral_radius_of_huge_matrices():
     # Homogeneity, rho(c T) = c rho(T): at c = 2^600 the products of 80 matrices
     # overflowed (inf, then a LinAlgError); the bounds must bracket c times those of T.
-    from jaxsubdiv._analysis.smoothness import factor_symbol, jsr_search, transition_matrices
+    from jaxsubdiv._analysis.smoothness import (
+        factor_symbol,
+        jsr_search,
+        transition_matrices,
+    )
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", js.DivergenceWarning)
