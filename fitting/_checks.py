@@ -16,6 +16,7 @@ import numpy as np
 import jaxsubdiv as js
 from jaxsubdiv.validation import (
     DEFAULT_MEMORY_BUDGET,
+    MemoryBudgetError,
     as_float_array,
     check_boundary,
     checked_budget,
@@ -157,11 +158,6 @@ def fit_memory(m: int, n: int, levels: int, scheme, boundary: str, dtype,
     return itemsize * (10 * N * n + searches + 1200 * m) + ordering
 
 
-class MemoryBudgetError(ValueError):
-    """A fit estimated to need more than its `memory_budget` (`check_memory`); a
-    `ValueError`, so that callers may tell it from other invalid input."""
-
-
 def check_memory(caller, m, pad_to, n, levels, scheme, boundary, dtype, memory_budget,
                  ordered):
     """Refuse, before anything is allocated, a fit estimated (`fit_memory`) to need
@@ -173,7 +169,8 @@ def check_memory(caller, m, pad_to, n, levels, scheme, boundary, dtype, memory_b
             f"`{caller}` of {max(m, pad_to)} samples with {n} control points at levels="
             f"{levels} would need about {need / 1024**3:.3g} GiB, above memory_budget="
             f"{int(budget):,} bytes. Use fewer samples (resample the outline: a few hundred "
-            "to a few thousand are plenty) or fewer levels, or raise `memory_budget`."
+            "to a few thousand are plenty) or fewer levels, or raise `memory_budget`.",
+            need=need, budget=budget,
         )
 
 

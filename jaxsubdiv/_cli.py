@@ -8,6 +8,7 @@ are one line on stderr and exit status 2; any other exception is one line and st
 """
 
 import argparse
+import contextlib
 import os
 import shlex
 import sys
@@ -297,6 +298,26 @@ def _new_figure(figsize):
 # ---------------------------------------------------------------------------- refine
 
 
+@contextlib.contextmanager
+def _memory_in_options(contour: str, doing: str, what: str):
+    """A `MemoryBudgetError` of the library (which names `memory_budget` and `levels=`)
+    said in the command's terms: its options, and its fixed budget."""
+    from ._misc import MemoryBudgetError, format_bytes
+
+    try:
+        yield
+    except MemoryBudgetError as e:
+        limit = f"the command's memory limit of {format_bytes(e.budget)}"
+        need = (f"about {format_bytes(e.need)}, above {limit}" if e.need is not None
+                else f"more than {limit}")
+        fewer = ("--levels " + str(e.most_levels) + " or fewer" if doing == "refining"
+                 and e.most_levels is not None else
+                 "fewer --levels" if doing == "refining" else
+                 "fewer samples (--samples 2000, say) or fewer --levels")
+        raise ValueError(
+            f"{contour}{doing} {what} would need {need}: use {fewer}") from None
+
+
 def _refine(args) -> int:
     import numpy as np
 
@@ -311,11 +332,14 @@ def _refine(args) -> int:
     refined = []
     for i, outline in enumerate(outlines):
         boundary = args.boundary or ("closed" if outline.closed else "open")
-        points = np.asarray(js.refine(outline.points, scheme, args.levels, boundary=boundary))
+        contour = f"contour {i + 1} of {len(outlines)}: " if len(outlines) > 1 else ""
+        with _memory_in_options(contour, "refining", f"{len(outline.points):,} points by "
+                                f"{args.levels} levels"):
+            points = np.asarray(js.refine(outline.points, scheme, args.levels,
+                                          boundary=boundary))
         if not np.all(np.isfinite(points)):
             # Refinement by weights far outside the scheme's range grows the points by a
             # factor per level until they overflow: no output, no picture of NaN.
-            contour = f"contour {i + 1} of {len(outlines)}: " if len(outlines) > 1 else ""
             raise ValueError(
                 f"{contour}the refined points overflow to inf or NaN by level {args.levels}: "
                 f"the scheme's parameters are far outside the range where it converges "
@@ -684,8 +708,14 @@ def _fit(args) -> int:
         pixels = (traced_image and boundary == "closed"
                   and fitting._pixels.traced_problem(outline.points) is None)
         measured = {}  # count -> its fit's pixel error
+        fitting_what = (f"{len(outline.points):,} samples "
+                        + (f"with {counts[i]} control points" if args.tolerance is None
+                           else f"to --tolerance {args.tolerance:g}"))
+        memory = _memory_in_options(f"contour {i + 1} of {count}: ", "fitting", fitting_what)
         if args.tolerance is None:
-            result = fitting.fit(outline.points, scheme, counts[i], on_failure="ignore", **options)
+            with memory:
+                result = fitting.fit(outline.points, scheme, counts[i], on_failure="ignore",
+                                     **options)
         else:
             tried = []
 
@@ -697,7 +727,7 @@ def _fit(args) -> int:
                 tried.append(f"{n}: {value:.2g}")
 
             # The search's warning says why it stopped; it is printed with the failures.
-            with warnings.catch_warnings(record=True) as caught:
+            with warnings.catch_warnings(record=True) as caught, memory:
                 warnings.simplefilter("always")
                 result = fitting.fit_tolerance(
                     outline.points, scheme, args.tolerance, on_failure="warn",

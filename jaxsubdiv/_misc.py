@@ -124,6 +124,20 @@ def _digits(value: int) -> int:
     return int(abs(int(value)).bit_length() * math.log10(2)) + 1
 
 
+class MemoryBudgetError(ValueError):
+    """Work estimated to need more memory than its `memory_budget`, refused before
+    anything is allocated (`jaxsubdiv.refine`, `fitting.fit`). A `ValueError` whose
+    message speaks the library's terms; `need` (bytes, None when only a lower bound was
+    estimated), `budget` (bytes) and `most_levels` (the most refinement levels within
+    the budget, where known; else None) let an application, such as the command line,
+    say it in its own terms."""
+
+    def __init__(self, message: str, *, need: float | None = None,
+                 budget: float | None = None, most_levels: int | None = None):
+        super().__init__(message)
+        self.need, self.budget, self.most_levels = need, budget, most_levels
+
+
 def checked_budget(value, name: str = "memory_budget") -> float:
     """Check a memory budget in bytes: a finite real number, 0 < budget <= 2^60 (not a
     bool, not traced).

@@ -17,6 +17,7 @@ from ._kernel import (
 )
 from ._misc import (
     DEFAULT_MEMORY_BUDGET as DEFAULT_MEMORY_BUDGET,
+    MemoryBudgetError,
     as_float_array,
     checked_budget,
     format_bytes,
@@ -193,11 +194,13 @@ def _check_memory(
     smallest = max(1, batch * d) * itemsize  # bytes per point of 2^levels
     # (Up to 64 levels the exact count below is cheap; math.log2 takes huge ints.)
     if levels > 64 and levels > math.log2(budget) - math.log2(smallest) + 1:
-        raise ValueError(
+        most, advice = _advice(n, d, batch, itemsize, scheme, levels, boundary, creases,
+                               budget, extra)
+        raise MemoryBudgetError(
             f"{caller} would build more than 2^{levels} points x {d} coordinates"
             + (f" x {batch:,} curves" if batch > 1 else "")
-            + f" ({levels:,} levels), above memory_budget={budget:,} bytes. "
-            + _advice(n, d, batch, itemsize, scheme, levels, boundary, creases, budget, extra)
+            + f" ({levels:,} levels), above memory_budget={budget:,} bytes. " + advice,
+            need=None, budget=budget, most_levels=most,
         )
     count, out, peak = _work_bytes(n, d, batch, itemsize, scheme, levels, boundary, creases)
     if peak + extra > budget:
@@ -206,16 +209,21 @@ def _check_memory(
             if peak + extra > out
             else ""
         )
-        raise ValueError(
+        most, advice = _advice(n, d, batch, itemsize, scheme, levels, boundary, creases,
+                               budget, extra)
+        raise MemoryBudgetError(
             f"{caller} would build {count:,} points x {d} coordinates"
             + (f" x {batch:,} curves" if batch > 1 else "")
             + f" = {format_bytes(out)}{with_work}, above memory_budget={budget:,} bytes. "
-            + _advice(n, d, batch, itemsize, scheme, levels, boundary, creases, budget, extra)
+            + advice,
+            need=peak + extra, budget=budget, most_levels=most,
         )
     return count
 
 
-def _advice(n, d, batch, itemsize, scheme, levels, boundary, creases, budget, extra) -> str:
+def _advice(n, d, batch, itemsize, scheme, levels, boundary, creases, budget, extra
+            ) -> tuple[int | None, str]:
+    """The most levels within the budget (None: not even 0), and the advice."""
     # The most levels that fit (the estimate grows with the levels): a bisection.
     smallest = max(1, batch * d) * itemsize
     lo, hi = -1, min(levels, int(math.log2(budget) - math.log2(smallest)) + 2)
@@ -225,7 +233,7 @@ def _advice(n, d, batch, itemsize, scheme, levels, boundary, creases, budget, ex
         lo, hi = (mid, hi) if peak + extra <= budget else (lo, mid)
     plural = "" if lo == 1 else "s"
     fewer = f"Use at most {lo} level{plural} here" if lo >= 0 else "Use fewer points or levels"
-    return (
+    return lo if lo >= 0 else None, (
         f"{fewer}, refine in chunks, evaluate the limit curve at the resolution you need, "
         "or raise `memory_budget` (a finite number of bytes)."
     )

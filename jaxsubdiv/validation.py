@@ -19,6 +19,7 @@ may be traced (inside `jax.jit`, `jax.grad`, ...) and are then left to the compu
 
 from ._misc import (
     DEFAULT_MEMORY_BUDGET as DEFAULT_MEMORY_BUDGET,
+    MemoryBudgetError as MemoryBudgetError,
     as_float_array as as_float_array,
     check_creasable as check_creasable,
     checked_budget as checked_budget,
@@ -33,6 +34,7 @@ from ._scheme.base import AbstractCurveScheme
 __all__ = [
     "BOUNDARIES",
     "DEFAULT_MEMORY_BUDGET",
+    "MemoryBudgetError",
     "as_float_array",
     "check_boundary",
     "check_creasable",

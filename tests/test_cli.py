@@ -484,6 +484,25 @@ def test_refine_that_overflows_is_an_error_not_a_picture(capsys, tmp_path):
     assert "outside -9 < t < 7" in err  # the divergence warning, one line before
 
 
+@pytest.mark.parametrize("arguments, words", [
+    (("refine", "--shape", "star", "--levels", 26),
+     ["refining 10 points by 26 levels would need about", "GiB, above the command's memory "
+      "limit of 2 GiB", "--levels 21 or fewer"]),
+    (("refine", "--shape", "star", "--levels", 80),
+     ["more than the command's memory limit of 2 GiB", "--levels 21 or fewer"]),
+    (("fit", "--shape", "star", "--samples", 3_000_000, "-q"),
+     ["contour 1 of 1: fitting 3,000,000 samples with 32 control points", "--samples"]),
+])
+def test_too_large_for_memory_is_said_in_the_commands_terms(capsys, arguments, words):
+    # The library's message names `memory_budget=` and `levels=`, which the command does
+    # not take (found by a user try-out); the command names its own options. A 10-point
+    # star refined 26 times is 671 million points, 10 GiB of float64 before any working
+    # array.
+    status, out, err = cli(capsys, *arguments)
+    assert status == 2 and err.count("\n") == 1, err
+    assert all(w in err for w in words) and "memory_budget" not in err and "levels=" not in err
+
+
 def test_refine_builtin_shape_four_point_keeps_its_points(capsys, tmp_path):
     out = tmp_path / "star.json"
     status, _, err = cli(capsys, "refine", "--shape", "star", "--scheme", "four-point",
