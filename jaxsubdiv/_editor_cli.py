@@ -171,7 +171,10 @@ def run(args) -> int:
         samples = args.samples
         if samples is None and args.fit and str(args.input).lower().endswith(".svg"):
             samples = 400  # as `jaxsubdiv fit`: a straight-line contour's corners are too few
-        outlines = js.io.read_outlines(args.input, samples=samples)
+        # A JSON point list is its own nodes; a saved result's (`fit -o x.json`, this
+        # editor's save) are its control polygon: edited as it is, not its curve.
+        nodes = not args.fit and samples is None and str(args.input).lower().endswith(".json")
+        outlines = js.io.read_outlines(args.input, samples=samples, nodes=nodes)
     else:
         outlines = [js.io.Outline(points=np.asarray(js.shapes.get("star")), closed=True)]
     if args.outline is not None and not 1 <= args.outline <= len(outlines):

@@ -52,6 +52,7 @@ from ._io.curve import (
     dense_curve,
 )
 from ._io.points import (
+    load_json as _load_json,
     read_json,
     read_npy,
     read_npz,
@@ -63,6 +64,7 @@ from ._io.points import (
 )
 from ._io.raster import read_glyph, read_image
 from ._io.result import (
+    FORMAT as _RESULT_FORMAT,
     SavedResult as SavedResult,
     read_result_json as _read_result,
     write_result_json as _write_result,
@@ -126,7 +128,10 @@ def read_outlines(
           written by `write_outlines`, or any archive with a single `(m, 2)` array.
         - JSON: `{"points": [[x, y], ...], "closed": true}` (optionally with
           `"group": k`), a bare list of pairs, or `{"outlines": [...]}` of such
-          objects.
+          objects; or a saved result (`write_result_json`: `jaxsubdiv fit -o x.json`,
+          the editor's saved JSON), read as its curve, the control polygon refined
+          with the saved scheme, boundary, creases and levels (`RESULT_LEVELS` = 6 if
+          none), and with `nodes=True` as its control polygon.
         - SVG: every `<path>` (all commands of SVG 1.1, absolute and relative;
           arcs by the specification's endpoint-to-center conversion), `<polygon>`,
           `<polyline>`, `<rect>` (rounded too), `<circle>`, `<ellipse>` and `<line>`,
@@ -196,7 +201,7 @@ def read_outlines(
         "txt": read_table,
         "npy": read_npy,
         "npz": read_npz,
-        "json": read_json,
+        "json": _read_json_outlines(nodes),
     }[kind]
     outlines = reader(path)
     check_contours(path, len(outlines))
@@ -206,6 +211,39 @@ def read_outlines(
             Outline(resample_polyline(o.points, samples, o.closed), o.closed) for o in outlines
         ]
     return outlines
+
+
+#: The refinement levels of a saved result's curve when the file has none.
+RESULT_LEVELS = 6
+
+
+def _read_json_outlines(nodes: bool):
+    """The JSON reader: point lists, and saved results (`write_result_json`: the
+    command's `fit -o x.json`, the editor's saved JSON), which read as their curve (the
+    control polygon refined with the saved scheme, boundary, creases and levels) or,
+    with `nodes`, as their control polygon."""
+
+    def read(path) -> list[Outline]:
+        if not _is_result(path):
+            return read_json(path)
+        saved = _read_result(path)
+        closed = saved.boundary == "closed"
+        if nodes:
+            return [Outline(np.asarray(saved.control_points, np.float64), closed)]
+        from ._refine import refine
+
+        levels = RESULT_LEVELS if saved.levels is None else saved.levels
+        curve = refine(np.asarray(saved.control_points, np.float64), saved.scheme, levels,
+                       boundary=saved.boundary, creases=saved.creases or None)
+        return [Outline(np.asarray(curve, np.float64), closed)]
+
+    return read
+
+
+def _is_result(path) -> bool:
+    """Whether the JSON file is a saved result (its "format" says so)."""
+    data = _load_json(path)
+    return isinstance(data, dict) and data.get("format") == _RESULT_FORMAT
 
 
 def _at_least_one(path, outlines: list[Outline]) -> list[Outline]:

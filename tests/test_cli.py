@@ -206,6 +206,24 @@ def test_fit_open_stroke_with_pinned_ends(capsys, tmp_path):
                                atol=1e-12)
 
 
+def test_a_saved_fit_reopens_in_every_command(capsys, tmp_path):
+    # `fit -o x.json` wrote a file that `refine`, `fit` and `edit` refused (found by a
+    # user try-out). Now `refine` and `edit` take its control polygon, `fit` its curve.
+    saved = tmp_path / "fit.json"
+    status, _, err = cli(capsys, "fit", "--shape", "star", "--n", 16, "--quiet", "-o", saved)
+    assert status == 0, err
+    control = np.array(json.loads(saved.read_text())["control_points"])
+    refined = tmp_path / "refined.csv"
+    status, out, err = cli(capsys, "refine", saved, "--levels", 2, "-o", refined)
+    assert status == 0 and "16 -> 64 points (closed)" in out, err
+    status, out, err = cli(capsys, "fit", saved, "--n", 16, "--quiet")
+    assert status == 0 and "status     converged" in out, err
+    relative = float(re.search(r"rms error  [0-9.e-]+ \(([0-9.e-]+) of the size", out).group(1))
+    assert relative < 1e-3
+    status, out, err = cli(capsys, "edit", saved, "--png", tmp_path / "edit.png")
+    assert status == 0 and f"{len(control)} control points, closed" in out, err
+
+
 def test_fit_with_a_scheme_without_a_limit_curve_says_so(capsys):
     # Four-point at w = 0.6 does not converge (|w| < 1/2 is needed; Hölder exponent
     # below 0): its fit is of a refined polygon. It said "converged" and nothing else

@@ -878,6 +878,42 @@ def test_result_json_from_a_fit_result(tmp_path):
     assert (saved.boundary, saved.levels) == ("closed", 4)
 
 
+def _cubic_bspline_refined(P, levels):
+    """Closed cubic B-spline subdivision in plain numpy (vertex points
+    (P[i-1] + 6 P[i] + P[i+1]) / 8, edge points (P[i] + P[i+1]) / 2), vertex first."""
+    for _ in range(levels):
+        before, after = np.roll(P, 1, axis=0), np.roll(P, -1, axis=0)
+        out = np.empty((2 * len(P), P.shape[1]))
+        out[0::2] = (before + 6 * P + after) / 8
+        out[1::2] = (P + after) / 2
+        P = out
+    return P
+
+
+def test_a_saved_result_reads_as_its_curve_or_its_control_polygon(tmp_path):
+    # A result file written by hand (the format `fit -o x.json` and the editor write):
+    # `read_outlines` gives its curve, the control polygon refined with the saved scheme
+    # and levels, and with `nodes=True` the control polygon; both closed as saved. It
+    # was "the file must be {"points": ...}" (found by a user try-out).
+    polygon = np.array([[0.0, 0.0], [2.0, 0.0], [3.0, 1.5], [1.0, 2.5], [-0.5, 1.0]])
+    path = tmp_path / "saved.json"
+    path.write_text(json.dumps({
+        "format": "jaxsubdiv.result", "version": 1, "boundary": "closed", "levels": 3,
+        "scheme": {"type": "CubicBSpline", "parameters": {}},
+        "control_points": polygon.tolist(),
+    }))
+    (curve,) = js.io.read_outlines(path)
+    (nodes,) = js.io.read_outlines(path, nodes=True)
+    assert curve.closed and nodes.closed
+    np.testing.assert_array_equal(nodes.points, polygon)
+    expected = _cubic_bspline_refined(polygon, 3)
+    # (Up to the rotation of the refined polygon's first point.)
+    shift = int(np.argmin(np.linalg.norm(curve.points - expected[0], axis=1)))
+    np.testing.assert_allclose(np.roll(curve.points, -shift, axis=0), expected, atol=1e-12)
+    (resampled,) = js.io.read_outlines(path, samples=100)
+    assert resampled.points.shape == (100, 2)
+
+
 def test_result_json_refuses_a_batch(tmp_path):
     record = {"control_points": np.stack([POLYGON, POLYGON]), "scheme": js.Chaikin()}
     with pytest.raises(ValueError, match="write one result at a time"):
