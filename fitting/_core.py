@@ -536,9 +536,10 @@ def phase_preferred(rms, converged, best_rms, best_converged, tol, size):
     its status is success) replaces the best so far (`best_rms`, `best_converged`): a
     converged fit replaces one that did not converge; between two that both converged
     or both did not, the one of lower RMS, by more than the solver's tolerance (`tol`
-    of it, and `tol` of the outline's `size`: the RMS the solver calls converged). So
-    the choice does not depend on the phases' order: the converged fit of least RMS,
-    else the fit of least RMS (a lower RMS reported as "did not converge" is not what a
+    of it, and `tol` of the outline's `size`: the RMS the solver calls converged). So,
+    up to that tolerance, the choice does not depend on the phases' order: the
+    converged fit of least RMS, else the fit of least RMS (a fit whose RMS is not
+    finite counts as not converged; a lower RMS reported as "did not converge" is not what a
     search should return when a phase converged: icon filesave at n = 64 ended at 0.87x
     phase 0's RMS after 500 steps, `max_steps`). Within the tolerance the earlier phase
     is kept: starts that reach the same curve, often with the polygon relabelled, tie to
@@ -548,6 +549,8 @@ def phase_preferred(rms, converged, best_rms, best_converged, tol, size):
     xp = jnp if any(is_traced(x) or isinstance(x, jax.Array)
                     for x in (rms, converged, best_rms, best_converged)) else np
     # (Written without inf - inf, which NumPy warns about, for a best of inf.)
+    converged = converged & (rms < xp.inf)
+    best_converged = best_converged & (best_rms < xp.inf)
     lower = rms + tol * (best_rms + size) < best_rms
     same = converged == best_converged
     return ((converged & xp.logical_not(best_converged)) | (same & lower)

@@ -103,6 +103,13 @@ def _scheme(args):
     return _make_scheme(args.scheme, {name: getattr(args, name) for name in takes})
 
 
+def _outside_convergence(args) -> bool:
+    """Whether a parameter of --scheme lies outside the interval where the scheme
+    declares it converges (`Parameter.converges`, the others at their defaults)."""
+    return any(p.converges is not None and not p.converges_at(getattr(args, p.name))
+               for p in _declarations()[args.scheme].parameters)
+
+
 def _scheme_text(name: str, scheme) -> str:
     """`four-point (w=0.0625)`: the CLI name and the values of its parameters."""
     values = _declarations()[name].info().values(scheme)
@@ -643,15 +650,15 @@ def _fit(args) -> int:
         + f" to {_source(args)}: {count} contour{'s' if count > 1 else ''}"
         + (" (scheme parameters fitted too)" if args.fit_params else "")
     )
-    if not args.fit_params:
-        # A scheme with no limit curve (the warning above, if its range is declared)
-        # fits its polygon at --levels: the status is the solver's, not the scheme's.
+    if not args.fit_params and _outside_convergence(args):
+        # A scheme with no limit curve (the warning above) fits a refined polygon: the
+        # status below is the solver's. (Analyzed only outside the declared range: the
+        # analysis takes up to 2 s for some values inside it.)
         verdict = js.smoothness(scheme)
         if not verdict.converges:
-            print(f"  note       {_scheme_text(args.scheme, scheme)} has no "
-                  f"{'' if verdict.decided else 'proven '}limit curve (jaxsubdiv.smoothness: "
-                  f"{verdict}): the fitted curve is a refined polygon that changes with "
-                  "--levels, and 'converged' below is the solver's")
+            print(f"  note       no {'' if verdict.decided else 'proven '}limit curve "
+                  f"(jaxsubdiv.smoothness: {str(verdict).split(';')[0]}): the fit is of a "
+                  "refined polygon, which changes with --levels")
     results, sizes, pinned, stop_reasons, pixel_errors = [], [], [], {}, {}
     searched = {}  # contour -> the phases its fit searched
     # Corners need a scheme whose closed curves take creases as data.
@@ -692,10 +699,6 @@ def _fit(args) -> int:
                       "--tolerance)")
                 corners = None
         phases = _phases(args, boundary)
-        cornered = corners is not None and not isinstance(corners, str) and len(corners)
-        if args.phases is not None and args.phases > 1 and cornered:
-            print(f"  note       --phases {phases} not searched: the corners place the "
-                  "spans (--corners none fits a smooth curve from the phases)")
         options = dict(
             levels=args.levels, boundary=boundary, pin_ends=pin_ends,
             fit_params=bool(args.fit_params), max_steps=args.max_steps,
@@ -738,8 +741,12 @@ def _fit(args) -> int:
             print(f"  control    {result.control_points.shape[0]} points ("
                   f"{'pixel' if pixels else 'max'} error by count tried: {', '.join(tried)})")
         result = jax.block_until_ready(result)
-        # (A creased fit searches no phases: `fitting.fit`'s corners place the spans.)
+        # (A creased fit searches no phases: `fitting.fit`'s corners place the spans;
+        # with --tolerance, `fit_tolerance` finds them.)
         searched[i] = 1 if phases is None or result.creases is not None else phases
+        if args.phases is not None and args.phases > 1 and phases and searched[i] == 1:
+            print(f"  note       --phases {args.phases} not searched: the corners place the "
+                  "spans (--corners none fits a smooth curve from the phases)")
         if result.creases is not None:
             print(f"  corners    {int(np.sum(result.creases))} (creased control points)")
         elapsed = time.perf_counter() - start
@@ -905,9 +912,9 @@ def _add_fit(sub):
                      "from this many starts, the control polygon's phase along the samples "
                      "shifted by equal fractions of a span, and keep the one of least "
                      f"two-sided RMS (default {COMMAND_PHASES}; against 1, known curves "
-                     "were recovered twice as often and real outlines never fitted worse, "
-                     "in about 4x the time of a warm fit: docs/fitting.md, 'Phase of the "
-                     "start')")
+                     "were recovered twice as often and no real outline fitted worse by "
+                     "over 1%%, in about 4x the time of a warm fit: docs/fitting.md, 'Phase "
+                     "of the start')")
     fit.add_argument("--pin-ends", action="store_true",
                      help="open and clamped contours start at their first sample and end "
                      "at their last, exactly (closed contours have no ends)")
@@ -1124,20 +1131,20 @@ def _demo(args) -> int:
     if args.phases is not None and not 1 <= args.phases <= MAX_PHASES:
         raise ValueError(f"--phases must be from 1 to {MAX_PHASES}, got {args.phases}")
     _check_output(args.output, _picture_types, "-o")
+    phases = _phases(args, "closed")
     outlines = js.io.read_outlines(text=args.text, font="DejaVu Sans", samples=args.samples)
     # A glyph with holes has several contours: fit the outer one (the largest).
     target = max((o.points for o in outlines), key=lambda p: np.ptp(p, axis=0).prod())
     size = _size(target)
     print(
         f"fitting a closed cubic B-spline with {args.n} control points to the outline of "
-        f"{args.text!r} (DejaVu Sans, {len(target)} samples, size {size:.3g}), the best of "
-        f"{_phases(args, 'closed')} phases of the start"
+        f"{args.text!r} (DejaVu Sans, {len(target)} samples, size {size:.3g})"
+        + (f", the best of {phases} phases of the start" if phases > 1 else "")
     )
     sys.stdout.flush()  # before the progress lines on stderr
     start, compiles = time.perf_counter(), _compilations()
     result = fitting.fit(target, js.CubicBSpline(), args.n, on_failure="ignore",
-                         progress=False if args.quiet else "time",
-                         phases=_phases(args, "closed"))
+                         progress=False if args.quiet else "time", phases=phases)
     rms, worst = float(result.rms), float(result.max_error)
     _print_errors(result, size, time.perf_counter() - start, compiles())
 

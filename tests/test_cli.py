@@ -231,7 +231,7 @@ def test_fit_with_a_scheme_without_a_limit_curve_says_so(capsys):
     status, out, err = cli(capsys, "fit", "--shape", "star", "--scheme", "four-point",
                            "--w", 0.6, "--quiet")
     assert status == 0, err
-    assert "four-point (w=0.6) has no limit curve (jaxsubdiv.smoothness: does not converge" in out
+    assert "note       no limit curve (jaxsubdiv.smoothness: does not converge)" in out
     assert "changes with --levels" in out
     status, out, _ = cli(capsys, "fit", "--shape", "star", "--scheme", "four-point", "--quiet")
     assert status == 0 and "limit curve" not in out

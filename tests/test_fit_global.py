@@ -166,13 +166,14 @@ def test_phases_one_by_one_and_in_one_program_agree():
 #: (rms, converged, best rms, best converged, replaces): `phase_preferred`'s rule as
 #: documented, at tol = 1e-6 and size 1: a converged fit replaces one that is not
 #: whatever their RMS, never the reverse; otherwise lower by more than the tolerance;
-#: non-finite RMS as inf.
+#: non-finite RMS as inf, and as not converged.
 phase_choices = [
     (2.0, True, 1.0, False, True), (1.0, False, 2.0, True, False),
     (1.0, True, 2.0, True, True), (2.0, True, 1.0, True, False),
     (1.0, False, 2.0, False, True), (1.0 - 1e-7, True, 1.0, True, False),
     (np.inf, True, 1.0, True, False), (1.0, True, np.inf, True, True),
-    (np.inf, True, np.inf, True, False), (np.inf, True, 1.0, False, True),
+    (np.inf, True, np.inf, True, False), (np.inf, True, 1.0, False, False),
+    (2.0, False, np.inf, True, True),
 ]
 
 

@@ -336,32 +336,37 @@ def jsr_search(matrices: np.ndarray, n: int) -> tuple[float, float, str]:
 
 
 @ft.lru_cache(maxsize=4096)
-def _smoothness_cached(mask: tuple[float, ...], tol: float = 1e-9) -> Smoothness:
+def _smoothness_cached(mask: tuple[float, ...], tol: float = 1e-9,
+                       dtype: str = "float64") -> Smoothness:
     a = np.asarray(mask)
-    rounding = len(a) * np.finfo(a.dtype).eps * float(np.max(np.abs(a)))
-    if not rounding < tol:
-        # Entries so large that the sums below round by more than `tol`: whether the
-        # sub-masks sum to one cannot be seen in float64 (four-point at w = 1e16: 1/2 + w
-        # rounds to w, its sums to 0, which read as "not affine invariant").
-        return Smoothness(
-            converges=False,
-            holder_lower=-math.inf,
-            holder_upper=math.inf,
-            continuity=-1,
-            decided=False,
-            factors=0,
-            jsr_lower=0.0,
-            jsr_upper=math.inf,
-            method="none",
-            reason=(
-                f"the mask's entries (up to {float(np.max(np.abs(a))):.3g}) are too large to "
-                f"analyze in float64: its sums round by up to {rounding:.2g}, more than the "
-                f"{tol:g} the test of affine invariance needs (a scheme's parameters this "
-                "large are far outside the range where it converges)"
-            ),
-        )
-    even, odd = a[0::2].sum(), a[1::2].sum()  # parity relative to the first index
+    # Exact sums of the coefficients (`math.fsum`), parity relative to the first index.
+    even, odd = math.fsum(a[0::2]), math.fsum(a[1::2])
     if not (abs(even - 1) < tol and abs(odd - 1) < tol):
+        # The coefficients were rounded to `dtype` one by one (-w and 1/2 + w): sums off
+        # from 1 by no more than that rounding cannot tell a scheme that is not affine
+        # invariant from one whose mask rounds (four-point at w = 1e16 in float64, or
+        # 1e7 in float32: 1/2 + w rounds to w, the sums to 0 and 1).
+        largest = float(np.max(np.abs(a)))
+        rounding = len(a) * float(np.finfo(dtype).eps) * largest
+        if max(abs(even - 1), abs(odd - 1)) <= rounding:
+            return Smoothness(
+                converges=False,
+                holder_lower=-math.inf,
+                holder_upper=math.inf,
+                continuity=-1,
+                decided=False,
+                factors=0,
+                jsr_lower=0.0,
+                jsr_upper=math.inf,
+                method="none",
+                reason=(
+                    f"the sub-masks sum to {even:.6g} and {odd:.6g}, off from 1 by no more "
+                    f"than the rounding of {dtype} coefficients as large as {largest:.3g} "
+                    f"(up to {rounding:.2g}), so whether the scheme reproduces constants "
+                    "cannot be seen (parameters this large are far outside the range where "
+                    "a scheme converges)"
+                ),
+            )
         return Smoothness(
             converges=False,
             holder_lower=-math.inf,
@@ -495,4 +500,4 @@ def smoothness(scheme: AbstractCurveScheme) -> Smoothness:
     # Parity of the first coefficient: rotate so index 0 of the tuple is an even index.
     if scheme.mask_start % 2:
         values = np.concatenate([[0.0], values])
-    return _smoothness_cached(tuple(float(v) for v in values), tol)
+    return _smoothness_cached(tuple(float(v) for v in values), tol, str(host.dtype))
