@@ -178,7 +178,9 @@ class Eigen(eqx.Module):
 
 def _sorted_eig(matrix: np.ndarray):
     values, vectors = np.linalg.eig(matrix)
-    order = sorted(range(len(values)), key=lambda i: (-round(abs(values[i]), 12), -values[i].real))
+    # (Python's `round` of a float: NumPy's overflowed on 1e300 * 1e12, with a warning.)
+    order = sorted(range(len(values)),
+                   key=lambda i: (-round(float(abs(values[i])), 12), -values[i].real))
     return values[order], vectors[:, order]
 
 

@@ -398,6 +398,10 @@ def _smoothness_cached(mask: tuple[float, ...], tol: float = 1e-9,
     if lo == hi:
         holder_upper = holder_lower
     k = max(k, -1)
+    if k < 0:
+        # Not C^0 is proven by an exponent at most 0, whatever integers the bracket
+        # holds below it (four-point at w = 2: [-2 - 1.4e-9, -2], read as undecided).
+        decided = holder_upper <= 0
     reason = ""
     if k < 0:
         reason = (
