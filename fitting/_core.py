@@ -576,7 +576,7 @@ def phase_solve(objective: Objective, problem: Problem, tol, max_steps,
     up to 3.6x phase 0's RMS (`results/fit_phases_by_loss.md`): the loss weighs the
     curve-to-samples half less beyond a chord band, so a lower loss can be a higher
     two-sided RMS. Chosen by that RMS, the fit returned is never above phase 0's by more
-    than the tolerance. The K solves and measurements are one `lax.scan` over one solver
+    than the tolerance where phase 0 converged. The K solves and measurements are one `lax.scan` over one solver
     loop (its body compiled once) that carries the best solution so far (memory does not
     grow with K), under `stop_gradient`; the derivatives are the implicit ones of the fit
     returned (`held_implicit`), as `optimistix.least_squares` gives its solution."""
