@@ -531,7 +531,6 @@ def _fit(args) -> int:
     import numpy as np
 
     import fitting
-    from fitting._checks import MAX_PHASES
     from fitting._tolerance import ladder_floor
     from jaxsubdiv._io.common import densify_polyline
     from jaxsubdiv.validation import check_creasable, min_points
@@ -559,8 +558,7 @@ def _fit(args) -> int:
     if args.pin_ends and args.boundary == "closed":
         raise ValueError("--pin-ends: a closed curve has no ends; use --boundary open or "
                          "clamped (or leave --boundary out: open contours are fitted open)")
-    if args.phases is not None and not 1 <= args.phases <= MAX_PHASES:
-        raise ValueError(f"--phases must be from 1 to {MAX_PHASES}, got {args.phases}")
+    _check_phases_option(args)
     if args.phases is not None and args.phases > 1:
         if args.fit_params:
             raise ValueError("--phases applies to fits without --fit-params (whose profile "
@@ -1108,6 +1106,14 @@ def _add_gallery(sub):
 # ---------------------------------------------------------------------------- demo
 
 
+def _check_phases_option(args) -> None:
+    """`--phases` from 1 to `fitting`'s `MAX_PHASES`, or not given."""
+    from fitting._checks import MAX_PHASES
+
+    if args.phases is not None and not 1 <= args.phases <= MAX_PHASES:
+        raise ValueError(f"--phases must be from 1 to {MAX_PHASES}, got {args.phases}")
+
+
 def _phases(args, boundary: str) -> int | None:
     """The phases a contour's fit searches (`fitting.fit(phases=...)`): `--phases`, by
     default `COMMAND_PHASES` for a closed contour fitted without `--fit-params`; None
@@ -1122,14 +1128,12 @@ def _demo(args) -> int:
 
     import fitting
     import jaxsubdiv as js
-    from fitting._checks import MAX_PHASES
 
     from .plot import plot_fit
 
     if args.samples < 4 * args.n:
         raise ValueError(f"--samples must be at least 4 x --n = {4 * args.n}")
-    if args.phases is not None and not 1 <= args.phases <= MAX_PHASES:
-        raise ValueError(f"--phases must be from 1 to {MAX_PHASES}, got {args.phases}")
+    _check_phases_option(args)
     _check_output(args.output, _picture_types, "-o")
     phases = _phases(args, "closed")
     outlines = js.io.read_outlines(text=args.text, font="DejaVu Sans", samples=args.samples)

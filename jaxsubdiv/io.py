@@ -201,9 +201,9 @@ def read_outlines(
         "txt": read_table,
         "npy": read_npy,
         "npz": read_npz,
-        "json": _read_json_outlines(nodes),
+        "json": read_json,
     }[kind]
-    outlines = reader(path)
+    outlines = _saved_result_outlines(path, nodes) if kind == "json" else reader(path)
     check_contours(path, len(outlines))
     if samples is not None:
         check_points(path, samples * len(outlines))
@@ -217,27 +217,23 @@ def read_outlines(
 RESULT_LEVELS = 6
 
 
-def _read_json_outlines(nodes: bool):
-    """The JSON reader: point lists, and saved results (`write_result_json`: the
-    command's `fit -o x.json`, the editor's saved JSON), which read as their curve (the
-    control polygon refined with the saved scheme, boundary, creases and levels) or,
-    with `nodes`, as their control polygon."""
+def _saved_result_outlines(path, nodes: bool) -> list[Outline]:
+    """A JSON file's outlines: a point list's (`read_json`), or a saved result's
+    (`write_result_json`: the command's `fit -o x.json`, the editor's saved JSON), its
+    curve (the control polygon refined with the saved scheme, boundary, creases and
+    levels) or, with `nodes`, its control polygon."""
+    if not _is_result(path):
+        return read_json(path)
+    saved = _read_result(path)
+    closed = saved.boundary == "closed"
+    if nodes:
+        return [Outline(np.asarray(saved.control_points, np.float64), closed)]
+    from ._refine import refine
 
-    def read(path) -> list[Outline]:
-        if not _is_result(path):
-            return read_json(path)
-        saved = _read_result(path)
-        closed = saved.boundary == "closed"
-        if nodes:
-            return [Outline(np.asarray(saved.control_points, np.float64), closed)]
-        from ._refine import refine
-
-        levels = RESULT_LEVELS if saved.levels is None else saved.levels
-        curve = refine(np.asarray(saved.control_points, np.float64), saved.scheme, levels,
-                       boundary=saved.boundary, creases=saved.creases or None)
-        return [Outline(np.asarray(curve, np.float64), closed)]
-
-    return read
+    levels = RESULT_LEVELS if saved.levels is None else saved.levels
+    curve = refine(np.asarray(saved.control_points, np.float64), saved.scheme, levels,
+                   boundary=saved.boundary, creases=saved.creases or None)
+    return [Outline(np.asarray(curve, np.float64), closed)]
 
 
 def _is_result(path) -> bool:
