@@ -115,9 +115,13 @@ def _window_project(points, curve, closed, window, count=None):
 #: pairs took about 1.1 GB at 16,000 samples). 2^22 pairs of float64: 32 MiB an array.
 BLOCK_PAIRS = 2**22
 
-#: Points that `nearest_on_polyline`'s certificate leaves unsure, checked against every
-#: segment together (`_redo`).
+#: Points that `nearest_on_polyline`'s certificate leaves unsure, searched again
+#: together (`_redo`), at least.
 RECHECK = 16
+
+#: `_redo` takes at least a `REDO_PASSES`-th of the points a pass (so at most a
+#: quarter of that many passes).
+REDO_PASSES = 256
 
 
 def _in_row_blocks(function, pairs_per_row: int, *rows):
@@ -366,12 +370,18 @@ def _unless(skip, found2):
 
 def _redo(flags, values, search, points):
     """`values` (arrays over the points) with those of the flagged points replaced by
-    `search(their points)`, a pointwise search, `RECHECK` at a time (`lax.while_loop`),
-    so that the cost is theirs, not every point's. When more than a quarter of the
-    points are flagged, all are searched anew, at once (`lax.cond`). `points`: an array
-    over the points, or a tuple of them (what `search` takes)."""
+    `search(their points)`, a pointwise search, some at a time (`lax.while_loop`), so
+    that the cost is theirs, not every point's. When more than a quarter of the points
+    are flagged, all are searched anew, at once (`lax.cond`). `points`: an array over
+    the points, or a tuple of them (what `search` takes).
+
+    `RECHECK` points a pass, or a `REDO_PASSES`-th of all of them when that is more:
+    each pass costs some work over all points besides the search (listing the next
+    flagged ones), and 16 at a time, the 36,000 of 262,144 points (a fit's curve of
+    20,000 samples) left unsure took 2,264 passes and 5.3 s, against 0.63 s 1,024 at
+    a time."""
     m = flags.shape[0]
-    size = min(m, RECHECK)
+    size = min(m, max(RECHECK, m // REDO_PASSES))
 
     def few(values):
         def more(carry):
@@ -651,12 +661,82 @@ def _pointwise(points, curve, closed, coarse, chunk, count):
                                                                   count)
     unsure = _unsure(points, curve, closed, coarse, count, nearest,
                      _found(points, curve, closed, segment, fraction))
-    # Every segment checked, for the unsure points only (`_redo`): typically a few
-    # points of hundreds are unsure, and checking the whole block that held them took
-    # 70% of a fit's error measurement (4 of 7 ms, 448 samples on a 1,024-point curve);
-    # a fit far from converged (20,000 samples after one step) once spent 52 s checking
-    # every point for a few unsure ones.
+    # Searched again for the unsure points only (`_redo`): typically a few points of
+    # hundreds are unsure, and checking the whole block that held them took 70% of a
+    # fit's error measurement (4 of 7 ms, 448 samples on a 1,024-point curve); a fit far
+    # from converged (20,000 samples after one step) once spent 52 s checking every
+    # point for a few unsure ones. By blocks of segments (`_block_nearest`), which
+    # checks every segment only for the points its own certificate leaves unsure.
     return _redo(unsure, (segment, fraction),
+                 lambda p: _block_nearest(p, curve, closed, chunk), points)
+
+
+#: Blocks of segments that `_block_nearest` searches for each point.
+BLOCKS_SEARCHED = 3
+
+
+def _block_size(segments: int) -> int:
+    r"""`_block_nearest`'s segments per block: the power of two nearest
+    $\sqrt{s / 3}$ for $s$ segments (at least 8), which makes the bounds on all blocks
+    and the segments of the `BLOCKS_SEARCHED` searched cost about the same."""
+    return max(8, 1 << round(np.log2(max(1.0, np.sqrt(segments / BLOCKS_SEARCHED)))))
+
+
+def _block_nearest(points, curve, closed, chunk):
+    r"""Nearest point of the polyline to each point, by blocks of consecutive
+    segments: (segment, fraction), as `all_distances`.
+
+    The segments go in blocks of `_block_size`, block $B$ inside the ball of radius
+    $R_B$ about $C_B$ (the centre of its vertices' bounding box), so that none of its
+    points is nearer to $p$ than $|p - C_B| - R_B$. Each point is projected onto every
+    segment of the `BLOCKS_SEARCHED` blocks of least bound, and the answer is certain
+    when every other block's bound is at least the distance found; the other points
+    check every segment (`all_distances`, `_redo`). This is what the certificate of the
+    window search falls back to (`_pointwise`): where the fit's curve is sampled far
+    more densely than its distance to the samples (20,000 samples a few thousandths of
+    the size from a curve of 81,920 samples), the window around the nearest coarse
+    vertex is shorter than that distance and most points are unsure; checking every
+    segment for all of them made the error measurement quadratic in the samples (5 of
+    6 s of a warm fit of 8,000 samples). Per point this costs the blocks' count plus
+    the searched blocks' segments, about $2\sqrt{3 s}$ for $s$ segments, instead of
+    $s$. Distances to the balls are sums of squared differences, with relative
+    rounding (lowered by `loose`, as in `_anchor_groups`)."""
+    points, curve = jax.lax.stop_gradient((points, curve))
+    N, d = curve.shape
+    segments = N if closed else N - 1
+    size = _block_size(segments)
+    count = -(-segments // size)
+    # Block b holds segments b size ... b size + size - 1 (the last one's window clipped
+    # to the last segment: repeats are harmless) and their ends.
+    vertex = np.minimum(np.arange(count)[:, None] * size + np.arange(size + 1), segments) % N
+    members = curve[vertex]  # (count, size + 1, d)
+    centre = 0.5 * (jnp.min(members, axis=1) + jnp.max(members, axis=1))
+    loose = 16 * (d + 2) * jnp.finfo(curve.dtype).eps
+    radius = jnp.sqrt(jnp.max(_squared_distance(_coordinates(members),
+                                                 _coordinates(centre[:, None])), axis=1))
+    radius = radius * (1 + loose)
+    searched = min(BLOCKS_SEARCHED, count)
+    window_of = jnp.asarray(np.minimum(np.arange(count)[:, None] * size + np.arange(size),
+                                       segments - 1))  # (count, size)
+
+    def rows(p):
+        m = p.shape[0]
+        lower = (jnp.sqrt(_squared_distance(_coordinates(p[:, None]), _coordinates(centre[None])))
+                 * (1 - loose) - radius[None, :])  # (m, count)
+        chosen = []
+        for _ in range(searched):  # the blocks of least bound, one `argmin` each
+            b = jnp.argmin(lower, axis=1)
+            chosen.append(b)
+            lower = jnp.where(jnp.arange(count)[None, :] == b[:, None], jnp.inf, lower)
+        window = window_of[jnp.stack(chosen, axis=1)].reshape(m, -1)
+        # (No outline `count`: the window holds the polyline's own segment indices.)
+        segment, fraction = _window_project(p, curve, closed, window)
+        found = _found(p, curve, closed, segment, fraction)
+        certain = found * (1 + loose) <= jnp.maximum(jnp.min(lower, axis=1), 0.0)
+        return segment, fraction, certain
+
+    segment, fraction, certain = _in_row_blocks(rows, count + searched * size, points)
+    return _redo(~certain, (segment, fraction),
                  lambda p: all_distances(p, curve, closed, chunk), points)
 
 

@@ -742,6 +742,67 @@ def test_searches_in_blocks_of_points_give_the_same_distances(monkeypatch, sprea
     _assert_brute_force_distances(monkeypatch, points, polyline, True, fallback)
 
 
+#: (segments, closed, spread): polylines of one block (every block searched), of blocks
+#: that do not divide the segments, and long ones; points near them and far away.
+block_cases = [(5, True, 0.05), (5, False, 0.05), (99, True, 0.02), (99, False, 0.3),
+               (1500, True, 0.01), (1500, False, 0.01), (1500, True, 0.3)]
+
+
+@pytest.mark.parametrize("segments, closed, spread", block_cases)
+def test_search_by_blocks_of_segments_equals_brute_force(monkeypatch, segments, closed, spread):
+    """`_curve._block_nearest` (the nearest point among the segments of the blocks whose
+    balls come nearest, certified by every other block's ball, else every segment
+    checked) gives the brute-force distance, on a wavy, self-approaching outline (a
+    thin 'C', whose two sides come within 2% of the size of each other), and is
+    certified without checking every segment for points near it."""
+    t = np.linspace(0.0, 1.0, segments + (0 if closed else 1), endpoint=not closed)
+    angle = 1.9 * np.pi * t
+    radius = 1.0 + 0.05 * np.sin(37 * np.pi * t)
+    outer = np.stack([radius * np.cos(angle), radius * np.sin(angle)], -1)
+    polyline = outer * np.where(t < 0.5, 1.0, 0.98)[:, None]  # the sides nearly touch
+    rng = np.random.default_rng(segments)
+    points = polyline[rng.integers(0, len(polyline), 301)]
+    points = points + spread * rng.standard_normal(points.shape)
+    calls = _executions(monkeypatch, _curve, "all_distances")
+    search = jax.jit(_curve._block_nearest, static_argnums=(2, 3))
+    segment, fraction = search(jnp.asarray(points), jnp.asarray(polyline), closed, 256)
+    ends = np.roll(polyline, -1, axis=0) if closed else polyline[1:]
+    segment, fraction = np.asarray(segment), np.asarray(fraction)[:, None]
+    foot = polyline[segment] + fraction * (ends[segment] - polyline[segment])
+    np.testing.assert_allclose(np.linalg.norm(points - foot, axis=1),
+                               polyline_distances(points, polyline, closed), rtol=1e-12,
+                               atol=1e-15)
+    if spread <= 0.02:
+        assert not calls
+
+
+def test_unsure_points_far_from_a_dense_curve_are_searched_by_blocks(monkeypatch):
+    """Points farther from a densely sampled curve than the window of the nearest coarse
+    vertex reaches (a fit's samples against its curve of 4 samples per sample and
+    more): most are unsure, and the search by blocks of segments (`_block_nearest`)
+    certifies them, so that no segment-by-segment check of all points runs (it made the
+    error measurement of a fit quadratic in its samples); the distances equal brute
+    force."""
+    t = np.linspace(0.0, 1.0, 8192, endpoint=False)
+    curve = np.stack([np.cos(2 * np.pi * t), 0.6 * np.sin(2 * np.pi * t)], -1)
+    rng = np.random.default_rng(3)
+    points = curve[::4] * (1.0 + 0.01 * rng.standard_normal((2048, 1)))
+
+    @jax.jit
+    def unsure(points, curve):  # the window search's certificate (`_curve._pointwise`)
+        coarse, _, nearest, segment, fraction = _curve._coarse_to_fine(points, curve, True, 8)
+        found = _curve._found(points, curve, True, segment, fraction)
+        return _curve._unsure(points, curve, True, coarse, None, nearest, found)
+
+    assert np.mean(unsure(jnp.asarray(points), jnp.asarray(curve))) > 0.25  # fails for most
+    blocks = _executions(monkeypatch, _curve, "_block_nearest")
+    every = _executions(monkeypatch, _curve, "all_distances")
+    ours = _curve.distances(jnp.asarray(points), jnp.asarray(curve), True)
+    jax.block_until_ready(ours)
+    assert blocks and not every
+    np.testing.assert_allclose(ours, polyline_distances(points, curve), rtol=1e-12, atol=1e-15)
+
+
 #: (points, anchors, duplicated anchors): anchor counts below one group, not a multiple
 #: of `_curve.ANCHOR_GROUP`, and exact ties (an anchor repeated later).
 anchor_cases = [(50, 7, 0), (300, 100, 0), (200, 257, 5), (64, 96, 3)]
