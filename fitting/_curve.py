@@ -693,10 +693,10 @@ def _block_nearest(points, curve, closed, chunk):
     when every other block's bound is at least the distance found; the other points
     check every segment (`all_distances`, `_redo`). This is what the certificate of the
     window search falls back to (`_pointwise`): where the fit's curve is sampled far
-    more densely than its distance to the samples (20,000 samples a few thousandths of
-    the size from a curve of 81,920 samples), the window around the nearest coarse
-    vertex is shorter than that distance and most points are unsure; checking every
-    segment for all of them made the error measurement quadratic in the samples (5 of
+    more densely than its distance to the samples (8,000 samples up to a few
+    thousandths of the size from a curve of 32,768 points; 2,207 of them unsure), the
+    window around the nearest coarse vertex is shorter than that distance; checking
+    every segment for all of them made the error measurement quadratic in the samples (5 of
     6 s of a warm fit of 8,000 samples). Per point this costs the blocks' count plus
     the searched blocks' segments, about $2\sqrt{3 s}$ for $s$ segments, instead of
     $s$. Distances to the balls are sums of squared differences, with relative
