@@ -862,6 +862,7 @@ def run_once(data: FitData, init, tol, max_steps, *, objective: Objective, solve
     if progress:
         _progress.compiling(program_key(objective, data, init, solver, steps),
                             objective.num_target)
+        _progress.step_label(label)
     args = (data, init, tol, max_steps)
     static = dict(objective=objective, solver=solver, progress=steps)
     concrete = not any(is_traced(x) for x in jax.tree.leaves(args))

@@ -24,7 +24,7 @@ import jax
 import jax.numpy as jnp
 
 
-_state = {"last": 0.0, "start": 0.0, "line": ""}
+_state = {"last": 0.0, "start": 0.0, "line": "", "label": "fitting"}
 
 
 def _live() -> bool:
@@ -50,8 +50,13 @@ def _show(step, loss):
     now = time.perf_counter()
     if int(step) == 0:
         _state["start"], _state["last"] = now, 0.0
-    _update(f"  fitting: step {int(step):4d}  loss {float(loss):.3e}  "
+    _update(f"  {_state['label']}: step {int(step):4d}  loss {float(loss):.3e}  "
             f"{now - _state['start']:6.1f} s", now)
+
+
+def step_label(label: str = "fitting") -> None:
+    """Name the fit whose steps the next lines show (`fit(phases=K)`: each phase's)."""
+    _state["label"] = label
 
 
 def progress_verbose(**kwargs):
@@ -61,7 +66,9 @@ def progress_verbose(**kwargs):
         return
     step = eqxi.unvmap_max(kwargs["num_steps"][1])
     loss = eqxi.unvmap_max(kwargs["loss_this_step"][1])
-    jax.debug.callback(_show, step, loss, ordered=True)
+    # `_show` looked up at each call, not baked into the compiled program (a replaced
+    # `_show`, as tests do, applies to programs compiled before).
+    jax.debug.callback(lambda step, loss: _show(step, loss), step, loss, ordered=True)
 
 
 def begin():
@@ -111,7 +118,7 @@ def finish():
     if _state["line"]:
         sys.stderr.write(("\r" if _live() else "") + _state["line"] + "\n")
         sys.stderr.flush()
-    _state["line"] = ""
+    _state["line"], _state["label"] = "", "fitting"
 
 
 @contextlib.contextmanager

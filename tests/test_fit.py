@@ -432,7 +432,12 @@ def test_batch_under_jit_and_grad():
     and the gradient of a batch's total error is finite."""
     targets = np.stack([blob(80, seed=s) for s in range(6)])
     batch = lambda T, tol=None: fitting.fit_batch(T, js.CubicBSpline(), 8, tol=tol).rms
-    np.testing.assert_allclose(jax.jit(batch)(targets), batch(targets), rtol=1e-12)
+    # To the solver's accuracy: the traced batch is one program with the measurement, which
+    # XLA may round otherwise at the suite's settings (conftest): with the measurement's
+    # search by blocks (`_curve._block_nearest`) in it, two of the six fits stopped with
+    # control points 1.4e-8 apart and RMS 4.4e-9 of itself apart (bit for bit with the
+    # every-segment search in its place, and at XLA's default settings).
+    np.testing.assert_allclose(jax.jit(batch)(targets), batch(targets), rtol=1e-7)
     gradient = jax.grad(lambda T: batch(T, 1e-10).sum())(jnp.asarray(targets))
     assert gradient.shape == targets.shape and bool(jnp.all(jnp.isfinite(gradient)))
 
@@ -2018,6 +2023,30 @@ def test_progress_is_off_by_default_and_one_line_for_a_batch(capfd, monkeypatch)
                       progress=True)
     # One line for the batch, counting outlines done, and no per-step updates.
     assert items == [(1, 3), (2, 3), (3, 3)] and calls == []
+
+
+def test_progress_lines_name_the_phase(capfd, monkeypatch):
+    """`fit(phases=2, progress=True)` off a terminal: one line per phase, each naming
+    it, its last step the phase's own count; then plain "fitting" lines again."""
+    import fitting._progress as progress
+
+    monkeypatch.setattr(progress, "_live", lambda: False)
+    samples = blob(90, seed=13)
+    steps = []
+    original = progress._show
+    monkeypatch.setattr(progress, "_show", lambda step, loss: (steps.append(int(step)),
+                                                               original(step, loss)))
+    fitting.fit(samples, js.CubicBSpline(), 9, phases=2, progress=True)
+    lines = capfd.readouterr().err.splitlines()
+    shown = [line for line in lines if ": step" in line]
+    assert [re.match(r"  (fitting, phase \d of 2): step", line)[1] for line in shown] == [
+        "fitting, phase 1 of 2", "fitting, phase 2 of 2"]
+    # Each phase's line ends at its last step (steps restart from 0 for the second).
+    restart = steps.index(0, 1)
+    assert [int(re.search(r"step +(\d+)", line)[1]) for line in shown] == [
+        steps[restart - 1], steps[-1]]
+    fitting.fit(samples, js.CubicBSpline(), 9, progress=True)
+    assert re.match(r"  fitting: step", capfd.readouterr().err.splitlines()[-1])
 
 
 @pytest.mark.parametrize("terminal", [True, False])
