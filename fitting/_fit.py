@@ -213,7 +213,8 @@ def fit(
       write to its persistent compilation cache); `"time"` to show the elapsed time
       instead, from a host thread (the program is unchanged and cacheable: what the
       `jaxsubdiv` command uses). Either also says on stderr when a program is prepared
-      for the first time in the process (compiled, or loaded from the cache).
+      for the first time in the process (compiled, or loaded from the cache). With
+      `phases` > 1, a line per phase ("fitting, phase 2 of 4: ...").
     - `on_failure`: what to do if the solver does not converge: `"raise"` a
       `RuntimeError`, `"warn"` (default) or `"ignore"`. The last iterate is always
       returned, with `converged` False and the reason in `message`. Under `jax.jit`

@@ -994,11 +994,12 @@ def test_smallest_outside_matches_a_masked_minimum(m, k, excluded):
     assert np.all(np.isinf(everything))
 
 
-def test_only_unsure_points_are_checked_against_every_segment(monkeypatch):
+def test_only_unsure_points_are_searched_again(monkeypatch):
     """Points near an outline and a few far from it: the certificate is unsure of a few
-    far ones, and only those (`_curve.RECHECK` at a time) are checked against every
-    segment (the whole block of points was, once: 4 of a fit's 7 ms of error
-    measurement); all distances equal brute force."""
+    far ones, and only those (`_curve.RECHECK` at a time) are searched again, by blocks
+    of segments (`_curve._block_nearest`; the whole block of points was once checked
+    against every segment: 4 of a fit's 7 ms of error measurement); all distances equal
+    brute force."""
     polyline = glyph_outline("S", 400)
     rng = np.random.default_rng(8)
     size = np.linalg.norm(np.ptp(polyline, axis=0))
@@ -1007,19 +1008,21 @@ def test_only_unsure_points_are_checked_against_every_segment(monkeypatch):
     far = polyline[rng.integers(0, len(polyline), 40)] + 0.3 * size * rng.standard_normal((40, 2))
     points = np.concatenate([near, far])
     checked = []
-    original = _curve.all_distances
+    original = _curve._block_nearest
 
     def spy(points, *args, **kwargs):
-        checked.append(points.shape[0])  # at tracing: the points checked together
+        checked.append(points.shape[0])  # at tracing: the points searched together
         return original(points, *args, **kwargs)
 
-    monkeypatch.setattr(_curve, "all_distances", spy)
-    _assert_brute_force_distances(monkeypatch, points, polyline, True, True)
+    monkeypatch.setattr(_curve, "_block_nearest", spy)
+    ours = _curve.distances(jnp.asarray(points), jnp.asarray(polyline), True)
+    np.testing.assert_allclose(ours, polyline_distances(points, polyline), rtol=1e-12,
+                               atol=1e-15)
     # Traced for the unsure points, RECHECK at a time, and (in the branch for more
     # than a quarter unsure, not taken here) for all.
     assert sorted(checked) == [_curve.RECHECK, len(points)]
     calls = []  # executions: one per `RECHECK` unsure points, fewer than the far ones
-    monkeypatch.setattr(_curve, "all_distances", lambda *a, **k: (
+    monkeypatch.setattr(_curve, "_block_nearest", lambda *a, **k: (
         jax.debug.callback(lambda: calls.append(1)), original(*a, **k))[1])
     jax.block_until_ready(_curve.distances(jnp.asarray(points), jnp.asarray(polyline), True))
     assert 1 <= len(calls) <= -(-len(far) // _curve.RECHECK)
