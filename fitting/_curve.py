@@ -119,8 +119,8 @@ BLOCK_PAIRS = 2**22
 #: together (`_redo`), at least.
 RECHECK = 16
 
-#: `_redo` takes at least a `REDO_PASSES`-th of the points a pass (so at most a
-#: quarter of that many passes).
+#: `_redo` takes at least a `REDO_PASSES`-th of the points a pass (so about a quarter
+#: of that many passes, or all of them with `at_once=False`).
 REDO_PASSES = 256
 
 
@@ -368,12 +368,13 @@ def _unless(skip, found2):
     return found2 if skip is None else jnp.where(skip, 0.0, found2)
 
 
-def _redo(flags, values, search, points):
+def _redo(flags, values, search, points, at_once: bool = True):
     """`values` (arrays over the points) with those of the flagged points replaced by
     `search(their points)`, a pointwise search, some at a time (`lax.while_loop`), so
     that the cost is theirs, not every point's. When more than a quarter of the points
     are flagged, all are searched anew, at once (`lax.cond`). `points`: an array over
-    the points, or a tuple of them (what `search` takes).
+    the points, or a tuple of them (what `search` takes). `at_once=False`: always the
+    loop (one traced copy of `search` instead of two).
 
     `RECHECK` points a pass, or a `REDO_PASSES`-th of all of them when that is more:
     each pass costs some work over all points besides the search (listing the next
@@ -399,6 +400,8 @@ def _redo(flags, values, search, points):
     def many(values):
         return search(points)
 
+    if not at_once:
+        return few(values)
     return jax.lax.cond(4 * jnp.sum(flags) > m, many, few, values)
 
 
@@ -667,8 +670,13 @@ def _pointwise(points, curve, closed, coarse, chunk, count):
     # from converged (20,000 samples after one step) once spent 52 s checking every
     # point for a few unsure ones. By blocks of segments (`_block_nearest`), which
     # checks every segment only for the points its own certificate leaves unsure.
+    # (The blocks' balls once, outside the loop; the loop alone, also for many unsure
+    # points: with a branch for all at once beside it, the two copies of the search
+    # made a fit's measurement program compile in 1.6x the time.)
+    blocks = _segment_blocks(jax.lax.stop_gradient(curve), closed)
     return _redo(unsure, (segment, fraction),
-                 lambda p: _block_nearest(p, curve, closed, chunk), points)
+                 lambda p: _block_nearest(p, curve, closed, chunk, blocks), points,
+                 at_once=False)
 
 
 #: Blocks of segments that `_block_nearest` searches for each point.
@@ -676,13 +684,35 @@ BLOCKS_SEARCHED = 3
 
 
 def _block_size(segments: int) -> int:
-    r"""`_block_nearest`'s segments per block: the power of two nearest
-    $\sqrt{s / 3}$ for $s$ segments (at least 8), which makes the bounds on all blocks
+    r"""`_block_nearest`'s segments per block: a power of two near $\sqrt{s / 3}$
+    for $s$ segments (rounded in its logarithm; at least 8), which makes the bounds on all blocks
     and the segments of the `BLOCKS_SEARCHED` searched cost about the same."""
     return max(8, 1 << round(np.log2(max(1.0, np.sqrt(segments / BLOCKS_SEARCHED)))))
 
 
-def _block_nearest(points, curve, closed, chunk):
+def _segment_blocks(curve, closed):
+    """`_block_nearest`'s blocks of segments: each one's ball (centre `(count, d)`,
+    radius `(count,)`, raised by `loose`) and `loose`, the relative rounding allowed a
+    computed distance (as in `_anchor_groups`). Block b holds segments b size ... b size
+    + size - 1 (`_block_size`; the last block's clipped to the last segment) and their
+    ends."""
+    N, d = curve.shape
+    segments = N if closed else N - 1
+    size = _block_size(segments)
+    count = -(-segments // size)
+    # (Index tables from iota, not host constants: at 131,072 segments a table of
+    # 512 x 257 indices took a megabyte of the program.)
+    vertex = jnp.minimum(jnp.arange(count)[:, None] * size + jnp.arange(size + 1),
+                         segments) % N
+    members = curve[vertex]  # (count, size + 1, d)
+    centre = 0.5 * (jnp.min(members, axis=1) + jnp.max(members, axis=1))
+    loose = 16 * (d + 2) * jnp.finfo(curve.dtype).eps
+    radius = jnp.sqrt(jnp.max(_squared_distance(_coordinates(members),
+                                                 _coordinates(centre[:, None])), axis=1))
+    return centre, radius * (1 + loose), loose
+
+
+def _block_nearest(points, curve, closed, chunk, blocks=None):
     r"""Nearest point of the polyline to each point, by blocks of consecutive
     segments: (segment, fraction), as `all_distances`.
 
@@ -700,24 +730,17 @@ def _block_nearest(points, curve, closed, chunk):
     6 s of a warm fit of 8,000 samples). Per point this costs the blocks' count plus
     the searched blocks' segments, about $2\sqrt{3 s}$ for $s$ segments, instead of
     $s$. Distances to the balls are sums of squared differences, with relative
-    rounding (lowered by `loose`, as in `_anchor_groups`)."""
+    rounding (lowered by `loose`, as in `_anchor_groups`). `blocks`: the blocks'
+    balls (`_segment_blocks`), if computed already (once for several calls)."""
     points, curve = jax.lax.stop_gradient((points, curve))
-    N, d = curve.shape
+    centre, radius, loose = _segment_blocks(curve, closed) if blocks is None else blocks
+    N = curve.shape[0]
     segments = N if closed else N - 1
     size = _block_size(segments)
-    count = -(-segments // size)
-    # Block b holds segments b size ... b size + size - 1 (the last one's window clipped
-    # to the last segment: repeats are harmless) and their ends.
-    vertex = np.minimum(np.arange(count)[:, None] * size + np.arange(size + 1), segments) % N
-    members = curve[vertex]  # (count, size + 1, d)
-    centre = 0.5 * (jnp.min(members, axis=1) + jnp.max(members, axis=1))
-    loose = 16 * (d + 2) * jnp.finfo(curve.dtype).eps
-    radius = jnp.sqrt(jnp.max(_squared_distance(_coordinates(members),
-                                                 _coordinates(centre[:, None])), axis=1))
-    radius = radius * (1 + loose)
+    count = centre.shape[0]
     searched = min(BLOCKS_SEARCHED, count)
-    window_of = jnp.asarray(np.minimum(np.arange(count)[:, None] * size + np.arange(size),
-                                       segments - 1))  # (count, size)
+    window_of = jnp.minimum(jnp.arange(count)[:, None] * size + jnp.arange(size),
+                            segments - 1)  # (count, size)
 
     def rows(p):
         m = p.shape[0]
@@ -736,8 +759,10 @@ def _block_nearest(points, curve, closed, chunk):
         return segment, fraction, certain
 
     segment, fraction, certain = _in_row_blocks(rows, count + searched * size, points)
+    # (A loop for the uncertain points, however many: a branch for all at once would
+    # compile another copy of `all_distances` into every copy of this search.)
     return _redo(~certain, (segment, fraction),
-                 lambda p: all_distances(p, curve, closed, chunk), points)
+                 lambda p: all_distances(p, curve, closed, chunk), points, at_once=False)
 
 
 def _clustered(points, curve, closed, coarse, chunk, count):
