@@ -3,6 +3,7 @@ fit and of its two programs, each in a fresh process, with the compiled program'
 
     python benchmarks/bench_fit_parts.py            # 3 runs per program (about 2 minutes)
     python benchmarks/bench_fit_parts.py --smoke    # 1 run per program
+    python benchmarks/bench_fit_parts.py --before 8e3bd5d   # that revision too, alternating
 
 The fit (a closed cubic B-spline with 32 control points on DejaVu Sans 'S', 400 samples,
 padded to 448) as `fitting.fit` runs it: the solve (`fitting._core.solve_one`) and the
@@ -12,6 +13,9 @@ traced, lowered and compiled explicitly (`jax.jit(...).trace(...).lower().compil
 timed with `time.perf_counter`; its size is the number of instructions and of fused
 kernels (`fusion` instructions) in XLA's compiled module, for which XLA generates code
 one by one (most of the compile time on CPU, profiled with `perf`).
+
+With `--before REV`, that git revision's `fitting` is measured too (first on the
+child's path), the versions alternating round by round.
 
 Writes `benchmarks/results/fit_parts.json` and `fit_parts.md` (`--output` sets the JSON
 path; the Markdown goes beside it).
@@ -75,37 +79,53 @@ print(json.dumps({"trace": trace, "lower": lower, "compile": compile_,
 
 
 def markdown(report: dict) -> str:
+    versions = report.get("versions", {"after": "this tree"})
     lines = [f"# Where a fit's compile time goes ({report['date']})", "",
              f"Machine: {report['machine']}; load average at the start {report['load_start']},"
              f" at the end {report['load_end']}; {report['repeat']} fresh process(es) per "
-             "program, interleaved. Medians (min-max) in seconds; sizes of XLA's compiled "
+             "program" + (" and version, the versions alternating" if len(versions) > 1 else "")
+             + ", interleaved. Medians (min-max) in seconds; sizes of XLA's compiled "
              "module. The fit: a closed cubic B-spline, 32 control points, DejaVu Sans 'S' "
-             "(400 samples padded to 448, 1024 curve samples).", "",
-             "| program | trace | lower | compile | instructions | fused kernels |",
-             "|---|---:|---:|---:|---:|---:|"]
+             "(400 samples padded to 448, 1024 curve samples). Versions: "
+             + ", ".join(f"{k} = `{v}`" for k, v in versions.items()) + ".", "",
+             "| version | program | trace | lower | compile | instructions | fused kernels |",
+             "|---|---|---:|---:|---:|---:|---:|"]
     fmt = _common.median_range
-    for program in PROGRAMS:
-        runs = [r for r in report["runs"] if r["program"] == program]
-        lines.append(f"| `{program}` | {fmt([r['trace'] for r in runs])} | "
-                     f"{fmt([r['lower'] for r in runs])} | {fmt([r['compile'] for r in runs])} | "
-                     f"{runs[0]['instructions']} | {runs[0]['kernels']} |")
+    for version in versions:
+        for program in PROGRAMS:
+            runs = [r for r in report["runs"] if r["program"] == program
+                    and r.get("version", "after") == version]
+            lines.append(f"| {version} | `{program}` | {fmt([r['trace'] for r in runs])} | "
+                         f"{fmt([r['lower'] for r in runs])} | "
+                         f"{fmt([r['compile'] for r in runs])} | "
+                         f"{runs[0]['instructions']} | {runs[0]['kernels']} |")
     lines += ["", "`fitting.fit` runs `solve_one` then `measure_one`; `fit_one` is both in one "
               "program (what `jit` or `grad` of a fit traces).", ""]
     return "\n".join(lines)
 
 
 def main() -> int:
-    args, output = _common.arguments(__doc__, "fit_parts")
-    repeat = 1 if args.smoke else 3
+    import os
+    import tempfile
+
+    args, output, repeat, _ = _common.versions_arguments(__doc__, "fit_parts", rounds=(1, 3),
+                                                         repeats=(1, 1))
     report = _common.header(repeat=repeat)
     report["runs"] = []
-    for index in range(repeat):
-        for program in PROGRAMS:
-            result = _common.child_json(CHILD, program, what=program,
-                                        cwd=Path(__file__).parent)
-            report["runs"].append({"program": program, "run": index, **result})
-            print(f"run {index + 1}/{repeat} {program:12s} compile {result['compile']:.2f} s",
-                  flush=True)
+    with tempfile.TemporaryDirectory() as scratch:
+        trees = _common.versions(args.before, Path(scratch))
+        report["versions"] = {name: commit for name, (_, commit) in trees.items()}
+        for index in range(repeat):
+            order = list(trees) if index % 2 == 0 else list(reversed(trees))
+            for name in order:
+                env = dict(os.environ, PYTHONPATH=str(trees[name][0]))
+                for program in PROGRAMS:
+                    result = _common.child_json(CHILD, program, what=program,
+                                                cwd=Path(__file__).parent, env=env)
+                    report["runs"].append({"program": program, "run": index, "version": name,
+                                           **result})
+                    print(f"run {index + 1}/{repeat} {name} {program:12s} compile "
+                          f"{result['compile']:.2f} s", flush=True)
     report["load_end"] = _common.load()
     output.write_text(json.dumps(report, indent=1))
     output.with_suffix(".md").write_text(markdown(report))
