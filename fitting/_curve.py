@@ -671,8 +671,8 @@ def _pointwise(points, curve, closed, coarse, chunk, count):
     # point for a few unsure ones. By blocks of segments (`_block_nearest`), which
     # checks every segment only for the points its own certificate leaves unsure.
     # (The blocks' balls once, outside the loop; the loop alone, also for many unsure
-    # points: with a branch for all at once beside it, the two copies of the search
-    # made a fit's measurement program compile in 1.6x the time.)
+    # points: a branch for all at once beside it would put a second copy of the search
+    # in the program, which compile time pays for.)
     blocks = _segment_blocks(jax.lax.stop_gradient(curve), closed)
     return _redo(unsure, (segment, fraction),
                  lambda p: _block_nearest(p, curve, closed, chunk, blocks), points,
@@ -685,8 +685,8 @@ BLOCKS_SEARCHED = 3
 
 def _block_size(segments: int) -> int:
     r"""`_block_nearest`'s segments per block: a power of two near $\sqrt{s / 3}$
-    for $s$ segments (rounded in its logarithm; at least 8), which makes the bounds on all blocks
-    and the segments of the `BLOCKS_SEARCHED` searched cost about the same."""
+    for $s$ segments (rounded in its logarithm; at least 8), which makes the bounds on
+    all blocks and the segments of the `BLOCKS_SEARCHED` searched cost about the same."""
     return max(8, 1 << round(np.log2(max(1.0, np.sqrt(segments / BLOCKS_SEARCHED)))))
 
 
@@ -726,8 +726,8 @@ def _block_nearest(points, curve, closed, chunk, blocks=None):
     more densely than its distance to the samples (8,000 samples up to a few
     thousandths of the size from a curve of 32,768 points; 2,207 of them unsure), the
     window around the nearest coarse vertex is shorter than that distance; checking
-    every segment for all of them made the error measurement quadratic in the samples (5 of
-    6 s of a warm fit of 8,000 samples). Per point this costs the blocks' count plus
+    every segment for all of them made the error measurement quadratic in the samples
+    (5 of 6 s of a warm fit of 8,000 samples). Per point this costs the blocks' count plus
     the searched blocks' segments, about $2\sqrt{3 s}$ for $s$ segments, instead of
     $s$. Distances to the balls are sums of squared differences, with relative
     rounding (lowered by `loose`, as in `_anchor_groups`). `blocks`: the blocks'
