@@ -89,7 +89,9 @@ def items_done(index, devices: int, total):
     `total` (traced: the real items, without the padding to a bucket)."""
     done = jnp.minimum((eqxi.unvmap_max(index) + 1) * devices, total)
     # Unordered: ordered effects are not supported across several devices.
-    jax.debug.callback(_show_items, done, total, ordered=False)
+    # (`_show_items` looked up at each call, as `_show` in `progress_verbose`.)
+    jax.debug.callback(lambda done, total: _show_items(done, total), done, total,
+                       ordered=False)
 
 
 _compiled: set = set()
