@@ -23,8 +23,9 @@ that was most of the time (compare the versions). Measured:
   rabbit --samples m` fits). Its fit stays a few thousandths of the size from the
   samples, farther than the window around a sample's nearest coarse curve point
   reaches on a curve of 4 points per sample, so the error measurement's certificate
-  leaves most points unsure: checked against every segment, that made a fit of 20,000
-  samples take 90 s from the command (`fitting._curve._block_nearest`).
+  leaves most points unsure: checked against every segment, that made a warm fit of
+  20,000 samples take 56 s (`results/fit_samples.md`, 2026-12-08; now by blocks of
+  segments, `fitting._curve._block_nearest`).
 - **glyphs**: fits of the usual size, which must not get slower: the outer contour of
   DejaVu Sans 'S' and 'a' (400 samples, `tests/helpers.py`) at n = 16, 32, 64, and 'S'
   at 1,500 samples, n = 32 (median of `--repeats`, at least 15, warm calls).
